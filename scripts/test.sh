@@ -1,0 +1,23 @@
+#!/usr/bin/env bash
+# Builds and runs every test twice: a Release build (with examples, benchmarks and the installed-package
+# consumer test) and an ASan + UBSan build. Usage: scripts/test.sh [--no-sanitize]
+set -euo pipefail
+root=$(cd "$(dirname "$0")/.." && pwd)
+"$root/scripts/install_deps.sh"
+jobs=$(nproc)
+sanitize=1
+[ "${1:-}" = "--no-sanitize" ] && sanitize=0
+
+echo "== Release build and tests"
+cmake -S "$root" -B "$root/build/release" -DCMAKE_BUILD_TYPE=Release >/dev/null
+cmake --build "$root/build/release" -j "$jobs"
+ctest --test-dir "$root/build/release" --output-on-failure -j "$jobs"
+
+if [ "$sanitize" = 1 ]; then
+  echo "== ASan + UBSan build and tests"
+  cmake -S "$root" -B "$root/build/sanitize" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DDIACHRON_SANITIZE=ON \
+        -DDIACHRON_BUILD_EXAMPLES=OFF -DDIACHRON_BUILD_BENCH=OFF >/dev/null
+  cmake --build "$root/build/sanitize" -j "$jobs"
+  ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
+    ctest --test-dir "$root/build/sanitize" --output-on-failure -j "$jobs"
+fi
