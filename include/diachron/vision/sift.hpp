@@ -1,0 +1,125 @@
+#pragma once
+/// @file
+/// SiftExtractor: OpenCV SIFT (Lowe 2004) as a diachron FeatureExtractor, optionally with the
+/// RootSIFT descriptor mapping (Arandjelovic and Zisserman 2012) that MicMac's guided matching uses.
+
+#include <cmath>
+#include <cstdint>
+#include <vector>
+
+#include <opencv2/core.hpp>
+#include <opencv2/features2d.hpp>
+
+#include <diachron/core/error.hpp>
+#include <diachron/core/raster.hpp>
+#include <diachron/matching/features.hpp>
+#include <diachron/vision/cv_features.hpp>
+#include <diachron/vision/image.hpp>
+
+namespace diachron {
+
+/// Options of SiftExtractor; the defaults are OpenCV's (cv::SIFT::create), which are Lowe's.
+struct SiftOptions {
+  /// Keep at most this many keypoints, the strongest by response (OpenCV `nfeatures`); 0 keeps all.
+  /// OpenCV may return a few more when responses tie, and counts a location with two orientations
+  /// as two keypoints.
+  int max_features = 0;
+  /// Scale levels per octave (OpenCV `nOctaveLayers`, Lowe's 3). The octave count follows the image size.
+  int octave_layers = 3;
+  /// DoG contrast threshold on images scaled to [0, 1] (OpenCV `contrastThreshold`). OpenCV divides it
+  /// by `octave_layers` before use, so 0.04 means 0.04 / 3 on the DoG. Lower it for flat DSM images.
+  double contrast_threshold = 0.04;
+  /// Edge rejection: principal-curvature ratio limit r (OpenCV `edgeThreshold`); larger keeps more edges.
+  double edge_threshold = 10.0;
+  /// Gaussian blur of the base level, in pixels of the (internally doubled) input (OpenCV `sigma`).
+  double sigma = 1.6;
+  /// Map each descriptor to RootSIFT: L1-normalise, then take element-wise square roots. Comparing
+  /// RootSIFT with L2 is comparing SIFT with the Hellinger kernel; the rows have unit L2 norm.
+  bool root_sift = false;
+
+  void check() const {
+    DIACHRON_CHECK(max_features >= 0, "SiftOptions::max_features must be >= 0, got " << max_features);
+    DIACHRON_CHECK(octave_layers >= 1, "SiftOptions::octave_layers must be >= 1, got " << octave_layers);
+    DIACHRON_CHECK(std::isfinite(contrast_threshold) && contrast_threshold >= 0.0,
+                   "SiftOptions::contrast_threshold must be finite and >= 0, got " << contrast_threshold);
+    DIACHRON_CHECK(std::isfinite(edge_threshold) && edge_threshold > 0.0,
+                   "SiftOptions::edge_threshold must be finite and > 0, got " << edge_threshold);
+    DIACHRON_CHECK(std::isfinite(sigma) && sigma > 0.0, "SiftOptions::sigma must be finite and > 0, got " << sigma);
+  }
+};
+
+namespace detail {
+
+/// RootSIFT in place: each row L1-normalised then square-rooted (rows of zeros stay zero).
+inline void root_sift_in_place(DescriptorMatrix& desc) {
+  for (Eigen::Index i = 0; i < desc.rows(); ++i) {
+    auto row = desc.row(i);
+    const float l1 = row.cwiseAbs().sum();
+    if (l1 > 0.0f) row = (row.cwiseAbs() / l1).cwiseSqrt();
+  }
+}
+
+}  // namespace detail
+
+/// FeatureExtractor (DESIGN.md section 3) running OpenCV SIFT on an 8-bit raster.
+///
+/// Output: positions in diachron's pixel convention; `scale` = KeyPoint::size (the diameter of
+/// the descriptor's neighbourhood, in pixels); `angle` = KeyPoint::angle in radians, from +x towards
+/// +y, in [0, 2 pi) (see cv_features.hpp); `response` = DoG contrast; 128 float descriptors
+/// (RootSIFT when `options.root_sift`). Compare with DescriptorMetric::L2.
+///
+/// Thread safety: `extract` is const and creates its cv::SIFT per call, so one extractor can serve
+/// many threads. OpenCV's own parallelism (cv::setNumThreads) is left as the application set it.
+class SiftExtractor {
+ public:
+  explicit SiftExtractor(SiftOptions options = {}) : options_(options) { options_.check(); }
+
+  const SiftOptions& options() const { return options_; }
+  static constexpr DescriptorMetric descriptor_metric() { return DescriptorMetric::L2; }
+
+  /// Keypoints and descriptors of `image`. An empty raster throws diachron::Error; an image
+  /// without texture gives empty Features.
+  Features extract(const Raster<std::uint8_t>& image) const {
+    DIACHRON_CHECK(!image.empty(), "SiftExtractor: the image is empty");
+    std::vector<cv::KeyPoint> keypoints;
+    cv::Mat desc;
+    try {
+      cv::Ptr<cv::SIFT> sift = cv::SIFT::create(options_.max_features, options_.octave_layers,
+                                                options_.contrast_threshold, options_.edge_threshold,
+                                                options_.sigma);
+      sift->detectAndCompute(as_mat(image), cv::noArray(), keypoints, desc);
+    } catch (const cv::Exception& e) {
+      DIACHRON_CHECK(false, "SiftExtractor: OpenCV failed on a " << image.width() << " x " << image.height()
+                                                                 << " image: " << e.what());
+    }
+    Features out;
+    if (keypoints.empty()) {
+      out.descriptors.resize(0, 128);
+      return out;
+    }
+    std::vector<int> rows = detail::strongest(keypoints, 0);
+    out.keypoints.reserve(keypoints.size());
+    for (const cv::KeyPoint& kp : keypoints) out.keypoints.push_back(detail::to_keypoint(kp));
+    out.descriptors = detail::float_rows(desc, rows);
+    if (options_.root_sift) detail::root_sift_in_place(out.descriptors);
+    return out;
+  }
+
+ private:
+  SiftOptions options_;
+};
+
+/// SIFT with RootSIFT descriptors, whatever `options.root_sift` says: the descriptor MicMac's
+/// TiePHistorical matches with (ratio 0.8, mutual nearest neighbour).
+class RootSiftExtractor : public SiftExtractor {
+ public:
+  explicit RootSiftExtractor(SiftOptions options = {}) : SiftExtractor(with_root(options)) {}
+
+ private:
+  static SiftOptions with_root(SiftOptions options) {
+    options.root_sift = true;
+    return options;
+  }
+};
+
+}  // namespace diachron
