@@ -1,0 +1,188 @@
+// AkazeExtractor (MLDB bits unpacked to floats) and ExtractorPairMatcher with the Hamming metric,
+// on a synthetic texture under a known shift, a similarity and a 90 degree rotation.
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <cstdint>
+#include <vector>
+
+#include <opencv2/core.hpp>
+#include <opencv2/features2d.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <diachron/core/error.hpp>
+#include <diachron/core/random.hpp>
+#include <diachron/core/raster.hpp>
+#include <diachron/core/types.hpp>
+#include <diachron/vision/akaze.hpp>
+#include <diachron/vision/extractor_pair_matcher.hpp>
+#include <diachron/vision/image.hpp>
+
+namespace {
+
+using diachron::Raster;
+
+// Smoothed noise at two scales plus random blobs: corners and blobs at many scales, no repetition.
+Raster<std::uint8_t> textured(int w, int h, std::uint64_t seed) {
+  diachron::RandomStream rng(seed);
+  cv::Mat img(h, w, CV_32F, cv::Scalar(0));
+  for (int cell : {40, 10}) {
+    cv::Mat coarse(h / cell + 3, w / cell + 3, CV_32F);
+    for (int y = 0; y < coarse.rows; ++y)
+      for (int x = 0; x < coarse.cols; ++x) coarse.at<float>(y, x) = static_cast<float>(rng.uniform(-1, 1));
+    cv::Mat fine;
+    cv::resize(coarse, fine, cv::Size(coarse.cols * cell, coarse.rows * cell), 0, 0, cv::INTER_CUBIC);
+    img += fine(cv::Rect(cell, cell, w, h)) * (cell == 40 ? 1.0 : 0.5);
+  }
+  for (int i = 0; i < w * h / 800; ++i) {
+    const cv::Point centre(static_cast<int>(rng.uniform(0, w)), static_cast<int>(rng.uniform(0, h)));
+    cv::circle(img, centre, static_cast<int>(rng.uniform(2, 12)), cv::Scalar(rng.uniform(-1.5, 1.5)), cv::FILLED,
+               cv::LINE_AA);
+  }
+  cv::GaussianBlur(img, img, cv::Size(0, 0), 1.0);
+  cv::Mat out;
+  cv::normalize(img, img, 0, 255, cv::NORM_MINMAX);
+  img.convertTo(out, CV_8U);
+  return diachron::to_raster<std::uint8_t>(out);
+}
+
+Raster<std::uint8_t> warp(const Raster<std::uint8_t>& src, const cv::Matx23d& m) {
+  cv::Mat dst;
+  cv::warpAffine(diachron::as_mat(src), dst, m, cv::Size(src.width(), src.height()), cv::INTER_CUBIC,
+                 cv::BORDER_REFLECT_101);
+  return diachron::to_raster<std::uint8_t>(dst);
+}
+
+// cv::warpAffine's matrix maps source pixel centres to destination pixel centres, in the same
+// convention as diachron, so it is the truth for b given a.
+diachron::Vec2 apply(const cv::Matx23d& m, const diachron::Vec2& p) {
+  return {m(0, 0) * p.x() + m(0, 1) * p.y() + m(0, 2), m(1, 0) * p.x() + m(1, 1) * p.y() + m(1, 2)};
+}
+
+double fraction_within(const std::vector<diachron::PointMatch>& matches, const cv::Matx23d& m, double tol) {
+  if (matches.empty()) return 0.0;
+  std::size_t good = 0;
+  for (const auto& match : matches)
+    if ((apply(m, match.a) - match.b).norm() <= tol) ++good;
+  return static_cast<double>(good) / static_cast<double>(matches.size());
+}
+
+double wrap_pi(double a) {
+  a = std::fmod(a, 2.0 * diachron::kPi);
+  if (a > diachron::kPi) a -= 2.0 * diachron::kPi;
+  if (a < -diachron::kPi) a += 2.0 * diachron::kPi;
+  return a;
+}
+
+}  // namespace
+
+TEST_CASE("AkazeExtractor: binary descriptors unpack to 0/1 floats and repack exactly", "[vision]") {
+  const Raster<std::uint8_t> img = textured(480, 360, 11);
+  const diachron::Features f = diachron::AkazeExtractor().extract(img);
+  INFO("keypoints: " << f.size());
+  REQUIRE(f.size() > 200);
+  REQUIRE(static_cast<std::size_t>(f.descriptors.rows()) == f.size());
+  REQUIRE(f.descriptors.cols() == 488);  // 61 bytes of MLDB
+  CHECK(((f.descriptors.array() == 0.0f) || (f.descriptors.array() == 1.0f)).all());
+  for (const auto& kp : f.keypoints) {
+    CHECK(kp.scale > 0.0);
+    CHECK(kp.angle >= 0.0);
+    CHECK(kp.angle < 2.0 * diachron::kPi);
+  }
+
+  // The same bytes as OpenCV's own descriptors, so Hamming distances are OpenCV's.
+  std::vector<cv::KeyPoint> kps;
+  cv::Mat desc;
+  cv::AKAZE::create()->detectAndCompute(diachron::as_mat(img), cv::noArray(), kps, desc);
+  REQUIRE(kps.size() == f.size());
+  const cv::Mat packed = diachron::detail::pack_bits(f.descriptors);
+  CHECK(cv::norm(packed, desc, cv::NORM_HAMMING) == 0.0);
+  // Hamming distance = L1 distance = squared L2 distance of the unpacked rows.
+  const double hamming = cv::norm(desc.row(0), desc.row(1), cv::NORM_HAMMING);
+  CHECK((f.descriptors.row(0) - f.descriptors.row(1)).cwiseAbs().sum() == Approx(hamming));
+  CHECK((f.descriptors.row(0) - f.descriptors.row(1)).squaredNorm() == Approx(hamming));
+}
+
+TEST_CASE("AkazeExtractor: max_features keeps the strongest; upright has no angles; bad options throw",
+          "[vision]") {
+  const Raster<std::uint8_t> img = textured(320, 240, 12);
+  const diachron::Features all = diachron::AkazeExtractor().extract(img);
+  diachron::AkazeOptions options;
+  options.max_features = 50;
+  const diachron::Features top = diachron::AkazeExtractor(options).extract(img);
+  REQUIRE(all.size() > 50);
+  REQUIRE(top.size() == 50);
+  double weakest_kept = 1e300;
+  for (const auto& kp : top.keypoints) weakest_kept = std::min(weakest_kept, kp.response);
+  std::size_t stronger = 0;
+  for (const auto& kp : all.keypoints) stronger += kp.response > weakest_kept ? 1 : 0;
+  CHECK(stronger < 50);
+
+  options = {};
+  options.upright = true;
+  const diachron::Features upright = diachron::AkazeExtractor(options).extract(img);
+  REQUIRE_FALSE(upright.empty());
+  for (const auto& kp : upright.keypoints) CHECK(kp.angle < 0.0);
+
+  options = {};
+  options.descriptor_channels = 4;
+  CHECK_THROWS_WITH(diachron::AkazeExtractor(options), Catch::Contains("descriptor_channels"));
+  CHECK_THROWS_AS(diachron::AkazeExtractor().extract(Raster<std::uint8_t>()), diachron::Error);
+  CHECK(diachron::AkazeExtractor().extract(Raster<std::uint8_t>(64, 64, 7)).empty());
+}
+
+TEST_CASE("ExtractorPairMatcher<AkazeExtractor>: Hamming matching recovers a shift and a similarity",
+          "[vision]") {
+  const diachron::ExtractorPairMatcher<diachron::AkazeExtractor> matcher;
+  CHECK(matcher.metric() == diachron::DescriptorMetric::Hamming);
+  const Raster<std::uint8_t> a = textured(480, 360, 13);
+  {
+    const cv::Matx23d shift(1, 0, -5.5, 0, 1, 9.25);
+    const auto matches = matcher.match(a, warp(a, shift));
+    const double good = fraction_within(matches, shift, 1.5);
+    INFO("shift: matches " << matches.size() << ", within 1.5 px: " << good);
+    CHECK(matches.size() >= 100);
+    CHECK(good >= 0.8);
+    for (const auto& m : matches) CHECK(m.score <= 0.0);
+  }
+  {
+    const cv::Matx23d similarity = cv::getRotationMatrix2D(cv::Point2f(240, 180), -35.0, 1.1);
+    const auto matches = matcher.match(a, warp(a, similarity));
+    const double good = fraction_within(matches, similarity, 1.5);
+    INFO("similarity: matches " << matches.size() << ", within 1.5 px: " << good);
+    CHECK(matches.size() >= 100);
+    CHECK(good >= 0.8);
+  }
+}
+
+TEST_CASE("AkazeExtractor: keypoint angles turn by +pi/2 when the image turns 90 degrees clockwise",
+          "[vision]") {
+  const Raster<std::uint8_t> a = textured(320, 240, 14);
+  cv::Mat rotated;
+  cv::rotate(diachron::as_mat(a), rotated, cv::ROTATE_90_CLOCKWISE);
+  const Raster<std::uint8_t> b = diachron::to_raster<std::uint8_t>(rotated);
+  const cv::Matx23d truth(0, -1, a.height() - 1, 1, 0, 0);
+  const diachron::AkazeExtractor akaze;
+  const diachron::Features fa = akaze.extract(a);
+  const diachron::Features fb = akaze.extract(b);
+  const auto matches = diachron::match_features(fa, fb, diachron::AkazeExtractor::descriptor_metric());
+  std::size_t located = 0;
+  std::size_t turned = 0;
+  double error_sum = 0.0;
+  for (const auto& m : matches) {
+    const auto& ka = fa.keypoints[m.a];
+    const auto& kb = fb.keypoints[m.b];
+    if ((apply(truth, ka.position) - kb.position).norm() > 1.0) continue;
+    ++located;
+    const double error = wrap_pi(kb.angle - ka.angle - diachron::kPi / 2);
+    // AKAZE picks its orientation from 60-degree sectors: less precise than SIFT's histogram peak.
+    if (std::abs(error) < diachron::deg_to_rad(15.0)) {
+      ++turned;
+      error_sum += error;
+    }
+  }
+  INFO("matches: " << matches.size() << ", located: " << located << ", turned by pi/2: " << turned);
+  REQUIRE(located >= 50);
+  CHECK(static_cast<double>(turned) >= 0.9 * static_cast<double>(located));
+  CHECK(std::abs(error_sum / static_cast<double>(turned)) < diachron::deg_to_rad(3.0));
+}
