@@ -10,15 +10,15 @@
 using diachron::DescriptorMatch;
 using diachron::DescriptorMatchOptions;
 using diachron::DescriptorMatrix;
-using diachron::DescriptorMetric;
+using diachron::DescriptorDistance;
 
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
 double oracle_distance(const DescriptorMatrix& a, Eigen::Index i, const DescriptorMatrix& b, Eigen::Index j,
-                       DescriptorMetric metric) {
-  if (metric == DescriptorMetric::L2) {
+                       DescriptorDistance metric) {
+  if (metric == DescriptorDistance::L2) {
     double s = 0;
     for (Eigen::Index c = 0; c < a.cols(); ++c) {
       const double d = static_cast<double>(a(i, c)) - b(j, c);
@@ -42,7 +42,7 @@ struct Nn {
 };
 
 // Plain two-pass oracle: the nearest, then the nearest among the others (ties to the lower index).
-Nn oracle_nn(const DescriptorMatrix& a, Eigen::Index i, const DescriptorMatrix& b, DescriptorMetric metric) {
+Nn oracle_nn(const DescriptorMatrix& a, Eigen::Index i, const DescriptorMatrix& b, DescriptorDistance metric) {
   Nn r;
   for (Eigen::Index j = 0; j < b.rows(); ++j) {
     const double d = oracle_distance(a, i, b, j, metric);
@@ -69,7 +69,7 @@ std::vector<DescriptorMatch> oracle_match(const DescriptorMatrix& q, const Descr
     const Nn f = oracle_nn(q, i, t, o.metric);
     if (f.best < 0 || f.d1 > o.max_distance) continue;
     if (o.ratio_test && !(f.d1 < o.ratio * f.d2)) continue;
-    if (o.metric == DescriptorMetric::Cosine && 1.0 - 0.5 * f.d1 * f.d1 < o.min_similarity) continue;
+    if (o.metric == DescriptorDistance::Cosine && 1.0 - 0.5 * f.d1 * f.d1 < o.min_similarity) continue;
     if (o.mutual || o.ratio_test_both_ways) {
       const Nn g = oracle_nn(t, f.best, q, o.metric);
       if (g.best != i) continue;
@@ -138,7 +138,7 @@ TEST_CASE("match_descriptors: cosine equals a brute-force oracle", "[matching]")
     for (Eigen::Index k = 0; k < 150; ++k)
       for (Eigen::Index c = 0; c < 64; ++c) q(k, c) = t(3 * k, c) * 2.0f + 0.2f * static_cast<float>(rng.normal());
     DescriptorMatchOptions o;
-    o.metric = DescriptorMetric::Cosine;
+    o.metric = DescriptorDistance::Cosine;
     o.min_similarity = trial % 2 ? 0.9 : -1.0;
     o.ratio_test_both_ways = trial % 3 == 0;
     const auto got = diachron::match_descriptors(q, t, o);
@@ -229,7 +229,7 @@ TEST_CASE("match_descriptors: thresholds, empty inputs and bad input", "[matchin
   REQUIRE_THROWS_AS(diachron::match_descriptors(q, t, o), diachron::Error);
   // Cosine: a zero row matches nothing.
   DescriptorMatchOptions c;
-  c.metric = DescriptorMetric::Cosine;
+  c.metric = DescriptorDistance::Cosine;
   DescriptorMatrix z(1, 2);
   z << 0, 0;
   REQUIRE(diachron::match_descriptors(z, t, c).empty());

@@ -24,14 +24,14 @@
 namespace diachron {
 
 /// How two descriptor rows are compared.
-enum class DescriptorMetric {
+enum class DescriptorDistance {
   L2,      ///< Euclidean distance (SIFT, RootSIFT)
   Cosine,  ///< cosine similarity s = a.b / (|a| |b|); the inner product for unit descriptors (XFeat)
 };
 
 /// Options of match_descriptors. Defaults follow MicMac's guided matching: ratio 0.8, mutual NN.
 struct DescriptorMatchOptions {
-  DescriptorMetric metric = DescriptorMetric::L2;
+  DescriptorDistance metric = DescriptorDistance::L2;
   /// Lowe's ratio test on distances: keep a match when best < ratio * second best (strict, so a
   /// query with two equally near neighbours is ambiguous and dropped). MicMac hard-codes 0.8.
   bool ratio_test = true;
@@ -135,7 +135,7 @@ inline std::vector<DescriptorMatch> match_descriptors(const DescriptorMatrix& qu
 
   const std::size_t nq = static_cast<std::size_t>(query.rows());
   const std::size_t nt = static_cast<std::size_t>(train.rows());
-  const bool cosine = options.metric == DescriptorMetric::Cosine;
+  const bool cosine = options.metric == DescriptorDistance::Cosine;
   const bool need_backward = options.mutual || options.ratio_test_both_ways;
 
   // Double precision keeps |q|^2 + |t|^2 - 2 q.t accurate enough that near ties are decided the
