@@ -1,0 +1,58 @@
+#pragma once
+/// @file
+/// The Scoring concept of diachron::Ransac and classic RANSAC scoring, InlierCount.
+///
+/// Requirements for Scoring (a pseudo-class):
+/// @code
+/// struct MyScoring {
+///   // Contribution of one datum to a model's score, from its residual r (data units, >= 0; +inf
+///   // or NaN for a datum the model cannot explain) and the inlier threshold t > 0.
+///   // Must lie in [0, 1] and be 0 whenever r > t or r is NaN. A larger sum is a better model;
+///   // Ransac keeps a hypothesis only when its sum is STRICTLY larger than the best so far.
+///   double gain(double residual, double threshold) const;
+///
+///   // When true, Ransac stops scoring a hypothesis as soon as the data left, each adding at most
+///   // 1, can no longer lift its sum strictly above the best so far (with a margin for rounding).
+///   // The bound is exact, so the winner, the iterations and the final model are unchanged; only
+///   // the residual evaluations drop.
+///   bool early_exit;
+/// };
+/// @endcode
+/// Models: InlierCount (this header), Msac (robust/msac_scoring.hpp).
+/// Because every gain is in [0, 1], the score reads as "effective inliers" for every model and the
+/// early-exit bound needs no knowledge of the policy.
+
+#include <type_traits>
+#include <utility>
+
+namespace diachron {
+
+namespace detail {
+
+template <class S, class = void>
+struct is_scoring : std::false_type {};
+template <class S>
+struct is_scoring<
+    S, std::enable_if_t<std::is_convertible_v<decltype(std::declval<const S&>().gain(0.0, 1.0)),
+                                              double> &&
+                        std::is_convertible_v<decltype(std::declval<const S&>().early_exit), bool>>>
+    : std::true_type {};
+
+}  // namespace detail
+
+/// True when S satisfies the Scoring concept (see the requirements at the top of this header).
+template <class S>
+inline constexpr bool is_scoring_v = detail::is_scoring<S>::value;
+
+/// Classic RANSAC (Fischler and Bolles 1981): the score is the number of inliers,
+/// `residual <= threshold`. The paper's configuration.
+struct InlierCount {
+  /// Stop scoring a hypothesis once it cannot beat the best (exact; see the concept).
+  bool early_exit = true;
+
+  double gain(double residual, double threshold) const { return residual <= threshold ? 1.0 : 0.0; }
+};
+
+static_assert(is_scoring_v<InlierCount>, "InlierCount must model the Scoring concept");
+
+}  // namespace diachron

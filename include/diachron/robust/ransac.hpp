@@ -1,0 +1,339 @@
+#pragma once
+/// @file
+/// diachron::Ransac: random sample consensus assembled from five policies (DESIGN.md section 3).
+///
+/// Policies and where their requirements are written:
+/// - Estimator          robust/estimator.hpp               (the model: minimal solver, residual, ...)
+/// - Sampler            robust/uniform_sampler.hpp          UniformSampler, ProsacSampler
+/// - Scoring            robust/inlier_count_scoring.hpp     InlierCount, Msac
+/// - Termination        robust/fixed_iterations.hpp         FixedIterations, Adaptive
+/// - LocalOptimization  robust/no_local_optimization.hpp    NoLocalOptimization, Refit
+///
+/// The paper's configuration is Ransac<E, UniformSampler, InlierCount, FixedIterations,
+/// NoLocalOptimization> with max_iterations = 1000; the defaults are LO-MSAC with the exact adaptive
+/// stopping rule.
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstddef>
+#include <limits>
+#include <sstream>
+#include <utility>
+#include <vector>
+
+#include <diachron/core/error.hpp>
+#include <diachron/core/parallel.hpp>
+#include <diachron/core/random.hpp>
+#include <diachron/core/subset.hpp>
+#include <diachron/robust/adaptive_termination.hpp>
+#include <diachron/robust/estimator.hpp>
+#include <diachron/robust/fixed_iterations.hpp>
+#include <diachron/robust/inlier_count_scoring.hpp>
+#include <diachron/robust/msac_scoring.hpp>
+#include <diachron/robust/no_local_optimization.hpp>
+#include <diachron/robust/ransac_options.hpp>
+#include <diachron/robust/ransac_problem.hpp>
+#include <diachron/robust/ransac_report.hpp>
+#include <diachron/robust/refit_local_optimization.hpp>
+#include <diachron/robust/uniform_sampler.hpp>
+
+namespace diachron {
+
+/// Robust estimation of an Estimator's model from data with outliers.
+///
+/// Algorithm. Iteration i draws a minimal sample from RandomStream(seed, i) (redrawing, up to
+/// options.max_sample_attempts times, samples that are degenerate or give no model), scores every
+/// model of the sample, and the best of them becomes the best model when its score is strictly
+/// higher; then local optimisation runs on it, and the Termination policy decides whether to stop.
+/// Finally the best model is refit on all its inliers (options.final_refit, estimators with
+/// `refine` only), the refit kept unless it has fewer inliers, and inliers are computed once.
+///
+/// Determinism. Hypotheses are processed in batches (of 1, 2, 4, ... then 64 iterations; a fixed
+/// schedule). Within a batch they are generated and scored independently, on options.threads
+/// threads, with early exit bounded by the best score known before the batch; the results are then
+/// merged strictly in iteration order, and hypotheses past the stopping iteration are discarded.
+/// Since every early exit is exact and each iteration's randomness comes from its own stream, the
+/// report (model, inliers, iterations, score and all counters) is identical for every thread count.
+///
+/// Errors. Invalid options (threshold <= 0 or non-finite, ...) throw diachron::Error from the
+/// constructor; a null data pointer with a non-zero size throws from run(). "No answer" is not an
+/// error: empty data, fewer data than Estimator::kSampleSize, samples that are all degenerate, or a
+/// best model with fewer than options.min_inliers inliers give `success == false` and a message.
+/// Non-finite data are not checked here (the Datum type is opaque): their residuals are +inf or
+/// NaN, which count as outliers, so they never support a model. The convenience functions of
+/// robust/robust_estimation.hpp reject them with diachron::Error instead.
+///
+/// The input is read in place: never copied (minimal samples copy kSampleSize data) nor reordered.
+/// Thread safety: run() is const and may be called concurrently on one object.
+///
+/// @tparam Estimator models the Estimator concept.
+/// @tparam Sampler, Scoring, Termination, LocalOptimization model their concepts (see above).
+template <class Estimator, class Sampler = UniformSampler, class Scoring = Msac,
+          class Termination = Adaptive, class LocalOptimization = Refit>
+class Ransac {
+  static_assert(check_estimator<Estimator>(),
+                "Ransac's first template argument must model the Estimator concept "
+                "(see diachron/robust/estimator.hpp)");
+  static_assert(is_sampler_v<Sampler>,
+                "Sampler must have `void prepare(std::size_t, std::size_t)` and `void "
+                "draw(std::size_t, RandomStream&, std::size_t*) const` (see "
+                "diachron/robust/uniform_sampler.hpp)");
+  static_assert(is_scoring_v<Scoring>,
+                "Scoring must have `double gain(double residual, double threshold) const` and a "
+                "`bool early_exit` member (see diachron/robust/inlier_count_scoring.hpp)");
+  static_assert(is_termination_v<Termination>,
+                "Termination must have `std::size_t required_iterations(const RansacOptions&, "
+                "std::size_t, std::size_t, std::size_t) const` (see "
+                "diachron/robust/fixed_iterations.hpp)");
+  static_assert(is_local_optimization_v<LocalOptimization, Estimator, Scoring>,
+                "LocalOptimization must have `bool optimize(const RansacProblem<E, S>&, Model&, "
+                "Support&, std::size_t&) const` (see diachron/robust/no_local_optimization.hpp)");
+
+ public:
+  using Datum = typename Estimator::Datum;
+  using Model = typename Estimator::Model;
+  using Report = RansacReport<Model>;
+  static constexpr std::size_t kSampleSize = Estimator::kSampleSize;
+
+  /// Hypotheses per batch once the schedule 1, 2, 4, ... has grown (see the class comment).
+  static constexpr std::size_t kMaxBatch = 64;
+
+  /// @throws diachron::Error when `options.check()` fails.
+  explicit Ransac(const RansacOptions& options = {}, Estimator estimator = {},
+                  Sampler sampler = {}, Scoring scoring = {}, Termination termination = {},
+                  LocalOptimization local_optimization = {})
+      : options_(options),
+        estimator_(std::move(estimator)),
+        sampler_(std::move(sampler)),
+        scoring_(std::move(scoring)),
+        termination_(std::move(termination)),
+        local_optimization_(std::move(local_optimization)) {
+    options_.check();
+  }
+
+  const RansacOptions& options() const { return options_; }
+  const Estimator& estimator() const { return estimator_; }
+
+  /// Runs RANSAC on `data` (not modified, not copied).
+  Report run(const std::vector<Datum>& data) const { return run(data.data(), data.size()); }
+
+  /// Runs RANSAC on the `size` data at `data` (not modified, not copied; must outlive the call).
+  /// @throws diachron::Error when `data` is null and `size` > 0.
+  Report run(const Datum* data, std::size_t size) const;
+
+ private:
+  // What one iteration produced, computed independently of every other iteration.
+  struct Slot {
+    Model model{};
+    Support support;
+    bool has_model = false;
+    std::size_t generated = 0;
+    std::size_t stopped_early = 0;
+    std::size_t degenerate = 0;
+    std::size_t residual_evaluations = 0;
+  };
+
+  using Problem = RansacProblem<Estimator, Scoring>;
+
+  void run_iteration(const Problem& problem, const Sampler& sampler, std::size_t iteration,
+                     double bound, Slot& slot) const;
+
+  std::size_t needed_iterations(std::size_t best_inliers, std::size_t num_data) const {
+    const std::size_t k =
+        termination_.required_iterations(options_, best_inliers, num_data, kSampleSize);
+    return std::min(std::max<std::size_t>(k, 1), options_.max_iterations);
+  }
+
+  RansacOptions options_;
+  Estimator estimator_;
+  Sampler sampler_;
+  Scoring scoring_;
+  Termination termination_;
+  LocalOptimization local_optimization_;
+};
+
+// Implementation -----------------------------------------------------------------------------------
+
+template <class E, class Sa, class Sc, class T, class L>
+void Ransac<E, Sa, Sc, T, L>::run_iteration(const Problem& problem, const Sa& sampler,
+                                            std::size_t iteration, double bound,
+                                            Slot& slot) const {
+  // Fields reset one by one: the model is overwritten before it is read, and assigning a
+  // value-initialised Eigen model would copy uninitialised storage.
+  slot.has_model = false;
+  slot.support = Support{};
+  slot.generated = 0;
+  slot.stopped_early = 0;
+  slot.degenerate = 0;
+  slot.residual_evaluations = 0;
+  RandomStream rng(options_.seed, iteration);
+  std::array<std::size_t, kSampleSize> indices{};
+  typename E::Sample sample;
+  for (std::size_t attempt = 0; attempt < options_.max_sample_attempts; ++attempt) {
+    sampler.draw(iteration, rng, indices.data());
+    for (std::size_t k = 0; k < kSampleSize; ++k) sample[k] = problem.data()[indices[k]];
+    if constexpr (estimator_has_degenerate_v<E>) {
+      if (estimator_.degenerate(sample)) {
+        ++slot.degenerate;
+        continue;
+      }
+    }
+    const auto models = estimator_.minimal(sample);
+    if (models.empty()) {
+      ++slot.degenerate;
+      continue;
+    }
+    slot.generated += models.size();
+    for (const auto& model : models) {
+      // Only a model strictly better than both the batch's bound and this sample's best so far
+      // can matter, so that is the bar for early exit.
+      const double bar = slot.has_model ? std::max(bound, slot.support.score) : bound;
+      const Support support = problem.score(model, bar, slot.residual_evaluations);
+      if (!support.complete) {
+        ++slot.stopped_early;
+        continue;
+      }
+      if (!slot.has_model || support.score > slot.support.score) {
+        slot.model = model;
+        slot.support = support;
+        slot.has_model = true;
+      }
+    }
+    return;
+  }
+}
+
+template <class E, class Sa, class Sc, class T, class L>
+typename Ransac<E, Sa, Sc, T, L>::Report Ransac<E, Sa, Sc, T, L>::run(const Datum* data,
+                                                                      std::size_t size) const {
+  DIACHRON_CHECK(data != nullptr || size == 0, "Ransac::run: null data pointer with size " << size);
+  Report report;
+  report.num_data = size;
+  if (size == 0) {
+    report.message = "no data";
+    return report;
+  }
+  if (size < kSampleSize) {
+    std::ostringstream out;
+    out << "fewer data (" << size << ") than the minimal sample (" << kSampleSize << ")";
+    report.message = out.str();
+    return report;
+  }
+
+  const Problem problem(estimator_, scoring_, data, size, options_.threshold);
+  Sa sampler = sampler_;
+  sampler.prepare(size, kSampleSize);
+  const std::size_t threads = resolve_threads(options_.threads);
+
+  Model best_model{};
+  Support best;  // score 0: a hypothesis must have some positive gain to become the best
+  bool has_best = false;
+  std::vector<Slot> slots(kMaxBatch);
+  std::size_t needed = needed_iterations(0, size);
+  std::size_t iteration = 0;
+  std::size_t batch = 1;
+  while (iteration < needed) {
+    const std::size_t begin = iteration;
+    const std::size_t count = std::min(batch, needed - begin);
+    batch = std::min(batch * 2, kMaxBatch);
+    const double bound = best.score;
+    if (threads > 1 && count > 1) {
+      parallel_for(count, threads, [&](std::size_t j) {
+        run_iteration(problem, sampler, begin + j, bound, slots[j]);
+      });
+    }
+    for (std::size_t j = 0; j < count; ++j) {
+      Slot& slot = slots[j];
+      // One thread computes each iteration only when the merge reaches it, so no hypothesis past
+      // the stopping iteration is ever built; the bound is the same as with many threads.
+      if (threads <= 1 || count == 1) run_iteration(problem, sampler, begin + j, bound, slot);
+      report.hypotheses_generated += slot.generated;
+      report.hypotheses_stopped_early += slot.stopped_early;
+      report.degenerate_samples += slot.degenerate;
+      report.residual_evaluations += slot.residual_evaluations;
+      if (slot.has_model && slot.support.score > best.score) {
+        best_model = slot.model;
+        best = slot.support;
+        has_best = true;
+        ++report.local_optimizations;
+        if (local_optimization_.optimize(problem, best_model, best, report.residual_evaluations)) {
+          ++report.local_optimization_improvements;
+        }
+      }
+      iteration = begin + j + 1;
+      needed = needed_iterations(best.num_inliers, size);
+      if (iteration >= needed) break;
+    }
+  }
+  report.iterations = iteration;
+
+  if (!has_best) {
+    std::ostringstream out;
+    if (report.hypotheses_generated == 0) {
+      out << "every sample was degenerate (" << iteration << " iterations of up to "
+          << options_.max_sample_attempts << " draws)";
+    } else {
+      out << "no hypothesis had a single inlier (" << report.hypotheses_generated
+          << " hypotheses)";
+    }
+    report.message = out.str();
+    return report;
+  }
+
+  std::vector<std::size_t> inliers;
+  if constexpr (estimator_has_refine_v<E>) {
+    if (options_.final_refit) {
+      problem.inliers(best_model, inliers, nullptr, report.residual_evaluations);
+      if (inliers.size() >= kSampleSize) {
+        const Subset<Datum> subset(data, inliers.data(), inliers.size());
+        const auto refined = estimator_.refine(best_model, subset, nullptr);
+        if (refined) {
+          const Support support = problem.score(*refined, -std::numeric_limits<double>::infinity(),
+                                                report.residual_evaluations);
+          if (support.num_inliers >= best.num_inliers) {
+            best_model = *refined;
+            best = support;
+            report.final_refit = true;
+          }
+        }
+      }
+    }
+  }
+
+  // One pass for mask, indices, score and rms of the final model.
+  report.inlier_mask.assign(size, 0);
+  inliers.clear();
+  double score = 0.0;
+  double sum_squares = 0.0;
+  for (std::size_t i = 0; i < size; ++i) {
+    const double r = estimator_.residual(best_model, data[i]);
+    score += scoring_.gain(r, options_.threshold);
+    if (r <= options_.threshold) {
+      report.inlier_mask[i] = 1;
+      inliers.push_back(i);
+      sum_squares += r * r;
+    }
+  }
+  report.residual_evaluations += size;
+
+  const std::size_t min_inliers =
+      options_.min_inliers == 0 ? kSampleSize + 1 : options_.min_inliers;
+  if (inliers.size() < min_inliers) {
+    std::ostringstream out;
+    out << "best model has " << inliers.size() << " inliers, fewer than the " << min_inliers
+        << " required (RansacOptions::min_inliers)";
+    report.message = out.str();
+    report.inlier_mask.clear();
+    return report;
+  }
+  report.success = true;
+  report.message.clear();
+  report.model = best_model;
+  report.score = score;
+  report.rms = std::sqrt(sum_squares / static_cast<double>(inliers.size()));
+  report.inliers = std::move(inliers);
+  return report;
+}
+
+}  // namespace diachron

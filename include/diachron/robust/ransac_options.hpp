@@ -1,0 +1,76 @@
+#pragma once
+/// @file
+/// Options shared by every diachron::Ransac composition, whatever its policies. Policy-specific
+/// knobs (the Adaptive multiplier, the Refit iteration count, ...) live in the policy objects.
+
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+
+#include <diachron/core/error.hpp>
+
+namespace diachron {
+
+/// Options of diachron::Ransac. Defaults follow the paper (Zhang et al., 1000 iterations) where it
+/// says something, and the estimator literature otherwise. `check()` validates them; Ransac's
+/// constructor calls it, so an invalid value throws diachron::Error before any work is done.
+struct RansacOptions {
+  /// Inlier threshold on the estimator's residual, in data units (not squared): pixels for 2D
+  /// correspondences, target-frame metres for 3D ones. A datum is an inlier when
+  /// `residual <= threshold`. Must be finite and > 0. The paper uses 10 px for the rough
+  /// co-registration and 10 x GSD for the 3D Helmert; there is no meaningful universal default, so
+  /// the default (1.0) only keeps a default-constructed object valid.
+  double threshold = 1.0;
+
+  /// Hard cap on the number of iterations (minimal samples drawn), >= 1. The paper runs exactly
+  /// 1000; with Adaptive termination this is the most that is run, with FixedIterations it is
+  /// exactly what is run.
+  std::size_t max_iterations = 1000;
+
+  /// Iterations always run before Adaptive termination may stop, in [0, max_iterations].
+  /// 0 lets the stopping rule alone decide. Ignored by FixedIterations.
+  std::size_t min_iterations = 0;
+
+  /// Probability, in (0, 1], that Adaptive termination has drawn at least one all-inlier sample
+  /// before it stops (exact without-replacement rule). 1 means "never stop early": every run then
+  /// uses exactly max_iterations, which is the paper's fixed-count behaviour. Ignored by
+  /// FixedIterations.
+  double confidence = 0.999;
+
+  /// Seed of the random streams. The sample of iteration i comes from RandomStream(seed, i), so the
+  /// same seed gives the same report whatever `threads`.
+  std::uint64_t seed = 0;
+
+  /// Worker threads for generating and scoring hypotheses; 0 means all cores. The report does not
+  /// depend on it. Threads only pay off when scoring one hypothesis is expensive (many data).
+  std::size_t threads = 1;
+
+  /// Fewest inliers a final model needs for `success`. 0 (default) means kSampleSize + 1: a model
+  /// supported only by the sample it was computed from is not evidence of anything.
+  std::size_t min_inliers = 0;
+
+  /// Samples drawn per iteration before the iteration is given up, >= 1: a sample is redrawn (from
+  /// the same iteration's stream) when the estimator calls it degenerate or its minimal solver
+  /// returns no model. The cap keeps an all-degenerate data set from looping forever.
+  std::size_t max_sample_attempts = 100;
+
+  /// After the main loop, refit the best model on all its inliers with Estimator::refine (when the
+  /// estimator has one) and keep the refit unless it loses inliers.
+  bool final_refit = true;
+
+  /// Throws diachron::Error naming the first invalid field.
+  void check() const {
+    DIACHRON_CHECK(std::isfinite(threshold) && threshold > 0.0,
+                   "RansacOptions::threshold must be finite and > 0, got " << threshold);
+    DIACHRON_CHECK(max_iterations >= 1, "RansacOptions::max_iterations must be >= 1");
+    DIACHRON_CHECK(min_iterations <= max_iterations,
+                   "RansacOptions::min_iterations (" << min_iterations
+                                                     << ") exceeds max_iterations ("
+                                                     << max_iterations << ")");
+    DIACHRON_CHECK(confidence > 0.0 && confidence <= 1.0,
+                   "RansacOptions::confidence must be in (0, 1], got " << confidence);
+    DIACHRON_CHECK(max_sample_attempts >= 1, "RansacOptions::max_sample_attempts must be >= 1");
+  }
+};
+
+}  // namespace diachron
