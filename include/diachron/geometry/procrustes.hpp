@@ -1,0 +1,200 @@
+#pragma once
+/// @file
+/// Weighted similarity Procrustes in 2D and 3D (Umeyama, PAMI 1991, with weights; Horn's symmetric
+/// scale as an option): the closed-form least-squares fit behind Similarity2 and Helmert3 refits.
+
+#include <cmath>
+#include <cstddef>
+#include <optional>
+
+#include <Eigen/Core>
+#include <Eigen/SVD>
+
+#include <diachron/core/error.hpp>
+#include <diachron/geometry/helmert3.hpp>
+#include <diachron/geometry/similarity2.hpp>
+
+namespace diachron {
+
+/// What the Procrustes fit estimates besides the rotation and translation.
+struct ProcrustesOptions {
+  /// false: rigid fit, scale fixed to 1.
+  bool estimate_scale = true;
+  /// Only with estimate_scale. false: Umeyama's scale, which minimises the weighted squared error in
+  /// the target frame (so scale(a->b) != 1 / scale(b->a) under noise). true: Horn's symmetric
+  /// scale s = sqrt(sum w |y_c|^2 / sum w |x_c|^2), independent of the rotation, so fitting b->a
+  /// gives exactly the inverse scale; pick it when neither epoch is privileged.
+  bool symmetric_scale = false;
+};
+
+/// The result of a Procrustes fit: `target = scale * rotation * source + translation`.
+/// `rotation` is proper (det +1); `scale` > 0 (1 for a rigid fit); `translation` in target units.
+template <int D>
+struct SimilarityFit {
+  double scale = 1.0;
+  Eigen::Matrix<double, D, D> rotation = Eigen::Matrix<double, D, D>::Identity();
+  Eigen::Matrix<double, D, 1> translation = Eigen::Matrix<double, D, 1>::Zero();
+};
+
+/// Relative tolerance of the rank test on the centred, weighted cross-covariance: in 3D the second
+/// singular value below this fraction of the first (about a 1e-7 width-to-length ratio for exact
+/// data) means collinear data, whose rotation about the line is undetermined.
+inline constexpr double kProcrustesRankTolerance = 1e-14;
+
+/// Weighted least-squares similarity between corresponding points, minimising
+/// sum_i w_i |target_i - (s R source_i + t)|^2 over proper rotations R (and s when estimated).
+///
+/// Algorithm: weighted centroids (after subtracting one data point, so UTM or ECEF coordinates of
+/// 5e6 m keep their precision), centred cross-covariance Sigma = sum w y_c x_c^T / W, then in 3D
+/// Sigma = U D V^T and R = U S V^T with S = diag(1, 1, sign(det U det V)) (Umeyama's reflection
+/// fix); in 2D the optimal angle atan2(Sigma10 - Sigma01, Sigma00 + Sigma11) in closed form.
+///
+/// @tparam D     2 or 3.
+/// @tparam Pairs anything with `size()` and `operator[](i)` giving an object with `.source` and
+///               `.target` convertible to Eigen::Matrix<double, D, 1>: std::vector<PointPair3>,
+///               Subset<PointPair2>, ...
+/// @param weights null for unit weights, otherwise `pairs.size()` finite weights >= 0. Pairs with
+///               zero weight are ignored entirely, even when their coordinates are not finite.
+/// @return nullopt when the data do not determine a proper rotation: zero total weight, fewer than
+///         2 distinct points, all coincident, collinear in 3D (rank of Sigma < D - 1), a weighted
+///         point with non-finite coordinates, or a 2D set whose best rotation is undetermined.
+/// Precondition (throws diachron::Error): every weight finite and >= 0.
+template <int D, class Pairs>
+std::optional<SimilarityFit<D>> fit_similarity(const Pairs& pairs, const double* weights = nullptr,
+                                               const ProcrustesOptions& options = {});
+
+/// fit_similarity<2> as a Similarity2 (angle in (-pi, pi]).
+template <class Pairs>
+std::optional<Similarity2> fit_similarity2(const Pairs& pairs, const double* weights = nullptr,
+                                           const ProcrustesOptions& options = {});
+
+/// fit_similarity<3> as a Helmert3 (`epoch2_from_epoch1` when sources are epoch 1).
+template <class Pairs>
+std::optional<Helmert3> fit_helmert3(const Pairs& pairs, const double* weights = nullptr,
+                                     const ProcrustesOptions& options = {});
+
+// Implementation ---------------------------------------------------------------------------------
+
+template <int D, class Pairs>
+std::optional<SimilarityFit<D>> fit_similarity(const Pairs& pairs, const double* weights,
+                                               const ProcrustesOptions& options) {
+  static_assert(D == 2 || D == 3, "fit_similarity supports D = 2 and D = 3");
+  using VecD = Eigen::Matrix<double, D, 1>;
+  using MatD = Eigen::Matrix<double, D, D>;
+  const std::size_t n = pairs.size();
+  auto weight = [weights](std::size_t i) { return weights ? weights[i] : 1.0; };
+
+  if (weights) {
+    for (std::size_t i = 0; i < n; ++i) {
+      DIACHRON_CHECK(std::isfinite(weights[i]) && weights[i] >= 0.0,
+                     "weight " << i << " is " << weights[i] << ", must be finite and >= 0");
+    }
+  }
+
+  // Reference point: the first weighted pair. Subtracting it first keeps every later sum in the
+  // range of the data's extent rather than of its absolute coordinates.
+  std::size_t first = n;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (weight(i) > 0.0) {
+      first = i;
+      break;
+    }
+  }
+  if (first == n) return std::nullopt;
+  const VecD source_ref = pairs[first].source;
+  const VecD target_ref = pairs[first].target;
+
+  double total_weight = 0.0;
+  VecD source_mean = VecD::Zero();
+  VecD target_mean = VecD::Zero();
+  for (std::size_t i = first; i < n; ++i) {
+    const double w = weight(i);
+    if (w == 0.0) continue;
+    const VecD s = VecD(pairs[i].source) - source_ref;
+    const VecD t = VecD(pairs[i].target) - target_ref;
+    if (!s.allFinite() || !t.allFinite()) return std::nullopt;
+    total_weight += w;
+    source_mean += w * s;
+    target_mean += w * t;
+  }
+  if (!(total_weight > 0.0) || !std::isfinite(total_weight)) return std::nullopt;
+  source_mean /= total_weight;
+  target_mean /= total_weight;
+
+  MatD sigma = MatD::Zero();
+  double source_var = 0.0;
+  double target_var = 0.0;
+  for (std::size_t i = first; i < n; ++i) {
+    const double w = weight(i);
+    if (w == 0.0) continue;
+    const VecD s = (VecD(pairs[i].source) - source_ref) - source_mean;
+    const VecD t = (VecD(pairs[i].target) - target_ref) - target_mean;
+    sigma.noalias() += (w * t) * s.transpose();
+    source_var += w * s.squaredNorm();
+    target_var += w * t.squaredNorm();
+  }
+  sigma /= total_weight;
+  source_var /= total_weight;
+  target_var /= total_weight;
+  if (!(source_var > 0.0) || !(target_var > 0.0) || !sigma.allFinite()) return std::nullopt;
+
+  SimilarityFit<D> fit;
+  double correlation = 0.0;  // trace(D S): the maximised sum sum w y_c . R x_c / W
+  if constexpr (D == 2) {
+    const double c = sigma(0, 0) + sigma(1, 1);
+    const double s = sigma(1, 0) - sigma(0, 1);
+    correlation = std::hypot(c, s);
+    // Zero when the target is a reflection (or a point) of the source: no best rotation.
+    if (!(correlation > kProcrustesRankTolerance * std::sqrt(source_var * target_var))) {
+      return std::nullopt;
+    }
+    fit.rotation = rotation2<double>(std::atan2(s, c));
+  } else {
+    const Eigen::JacobiSVD<MatD> svd(sigma, Eigen::ComputeFullU | Eigen::ComputeFullV);
+    const VecD singular = svd.singularValues();
+    if (!(singular(0) > 0.0) || !(singular(1) > kProcrustesRankTolerance * singular(0))) {
+      return std::nullopt;
+    }
+    VecD signs = VecD::Ones();
+    if (svd.matrixU().determinant() * svd.matrixV().determinant() < 0.0) signs(D - 1) = -1.0;
+    fit.rotation = svd.matrixU() * signs.asDiagonal() * svd.matrixV().transpose();
+    correlation = singular.dot(signs);
+  }
+
+  if (!options.estimate_scale) {
+    fit.scale = 1.0;
+  } else if (options.symmetric_scale) {
+    fit.scale = std::sqrt(target_var / source_var);
+  } else {
+    fit.scale = correlation / source_var;
+  }
+  const VecD source_centroid = source_ref + source_mean;
+  const VecD target_centroid = target_ref + target_mean;
+  fit.translation = target_centroid - fit.scale * (fit.rotation * source_centroid);
+  if (!(fit.scale > 0.0) || !std::isfinite(fit.scale) || !fit.rotation.allFinite() ||
+      !fit.translation.allFinite()) {
+    return std::nullopt;
+  }
+  return fit;
+}
+
+template <class Pairs>
+std::optional<Similarity2> fit_similarity2(const Pairs& pairs, const double* weights,
+                                           const ProcrustesOptions& options) {
+  const std::optional<SimilarityFit<2>> fit = fit_similarity<2>(pairs, weights, options);
+  if (!fit) return std::nullopt;
+  // wrap_angle: atan2 gives -pi for a -0.0 sine, the convention is (-pi, pi].
+  return Similarity2{fit->scale,
+                     wrap_angle(std::atan2(fit->rotation(1, 0), fit->rotation(0, 0))),
+                     fit->translation};
+}
+
+template <class Pairs>
+std::optional<Helmert3> fit_helmert3(const Pairs& pairs, const double* weights,
+                                     const ProcrustesOptions& options) {
+  const std::optional<SimilarityFit<3>> fit = fit_similarity<3>(pairs, weights, options);
+  if (!fit) return std::nullopt;
+  return Helmert3{fit->scale, fit->rotation, fit->translation};
+}
+
+}  // namespace diachron
