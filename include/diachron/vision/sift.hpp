@@ -51,7 +51,7 @@ struct SiftOptions {
 namespace detail {
 
 /// RootSIFT in place: each row L1-normalised then square-rooted (rows of zeros stay zero).
-inline void root_sift_in_place(DescriptorMatrix& desc) {
+inline void apply_root_sift(DescriptorMatrix& desc) {
   for (Eigen::Index i = 0; i < desc.rows(); ++i) {
     auto row = desc.row(i);
     const float l1 = row.cwiseAbs().sum();
@@ -101,7 +101,7 @@ class SiftExtractor {
     out.keypoints.reserve(keypoints.size());
     for (const cv::KeyPoint& kp : keypoints) out.keypoints.push_back(detail::to_keypoint(kp));
     out.descriptors = detail::float_rows(desc, rows);
-    if (options_.root_sift) detail::root_sift_in_place(out.descriptors);
+    if (options_.root_sift) detail::apply_root_sift(out.descriptors);
     return out;
   }
 
