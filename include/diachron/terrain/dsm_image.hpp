@@ -291,8 +291,22 @@ inline Raster<std::uint8_t> hillshade(const Dsm& dsm, const HillshadeOptions& op
         }
         return weights > 0.0 ? sum / weights : 0.0;
       };
-      const double dzdc = derivative(false);
-      const double dzdr = derivative(true);
+      double dzdc, dzdr;
+      if (x > 0 && y > 0 && x + 1 < w && y + 1 < h) {
+        // Interior: plain Horn when the whole 3x3 block is valid (NaN propagates otherwise).
+        const float* a = z.row(y - 1) + x;
+        const float* b = z.row(y) + x;
+        const float* c3 = z.row(y + 1) + x;
+        dzdc = ((a[1] + 2.0 * b[1] + c3[1]) - (a[-1] + 2.0 * b[-1] + c3[-1])) / 8.0;
+        dzdr = ((c3[-1] + 2.0 * c3[0] + c3[1]) - (a[-1] + 2.0 * a[0] + a[1])) / 8.0;
+        if (std::isnan(dzdc) || std::isnan(dzdr)) {
+          dzdc = derivative(false);
+          dzdr = derivative(true);
+        }
+      } else {
+        dzdc = derivative(false);
+        dzdr = derivative(true);
+      }
       const Eigen::Vector2d g = options.z_factor * (to_world * Eigen::Vector2d(dzdc, dzdr));
       const Eigen::Vector3d n = Eigen::Vector3d(-g.x(), -g.y(), 1.0).normalized();
       const double shade = std::max(0.0, n.dot(light));
