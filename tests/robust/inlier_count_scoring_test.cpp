@@ -42,6 +42,7 @@ TEST_CASE("InlierCount: early exit never changes the winner", "[robust]") {
     CHECK(with.model.offset == without.model.offset);
     CHECK(with.inliers == without.inliers);
     CHECK(with.score == without.score);
+    CHECK(with.best_updates == without.best_updates);
     CHECK(with.local_optimizations == without.local_optimizations);
     CHECK(with.hypotheses_stopped_early > 0);
     CHECK(with.residual_evaluations < without.residual_evaluations);

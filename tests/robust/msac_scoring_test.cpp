@@ -70,6 +70,7 @@ TEST_CASE("Msac: early exit never changes the winner", "[robust]") {
     CHECK(with.inliers == without.inliers);
     CHECK(with.iterations == without.iterations);
     CHECK(with.score == without.score);
+    CHECK(with.best_updates == without.best_updates);
     CHECK(with.local_optimizations == without.local_optimizations);
     CHECK(without.hypotheses_stopped_early == 0);
     CHECK(with.residual_evaluations <= without.residual_evaluations);

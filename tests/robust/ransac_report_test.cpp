@@ -17,6 +17,7 @@ TEST_CASE("RansacReport: Report, defaults mean failure", "[robust]") {
   CHECK(report.hypotheses_generated == 0);
   CHECK(report.hypotheses_stopped_early == 0);
   CHECK(report.degenerate_samples == 0);
+  CHECK(report.best_updates == 0);
   CHECK(report.local_optimizations == 0);
   CHECK(report.local_optimization_improvements == 0);
   CHECK_FALSE(report.final_refit);

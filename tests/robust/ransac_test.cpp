@@ -46,6 +46,7 @@ void require_same_report(const diachron::RansacReport<Model>& a,
   REQUIRE(a.hypotheses_generated == b.hypotheses_generated);
   REQUIRE(a.hypotheses_stopped_early == b.hypotheses_stopped_early);
   REQUIRE(a.degenerate_samples == b.degenerate_samples);
+  REQUIRE(a.best_updates == b.best_updates);
   REQUIRE(a.local_optimizations == b.local_optimizations);
   REQUIRE(a.local_optimization_improvements == b.local_optimization_improvements);
   REQUIRE(a.final_refit == b.final_refit);
@@ -116,6 +117,7 @@ TEST_CASE("Ransac: report counters add up", "[robust]") {
   CHECK(report.num_data == 200);
   CHECK(report.hypotheses_generated == report.iterations);  // no degenerate samples here
   CHECK(report.local_optimizations >= 1);
+  CHECK(report.local_optimizations == report.best_updates);  // Refit works on every new best
   CHECK(report.local_optimization_improvements <= report.local_optimizations);
   // At least the inlier mask pass; at most a full pass per hypothesis plus LO and the final steps.
   CHECK(report.residual_evaluations >= data.size());
@@ -310,6 +312,8 @@ TEST_CASE("Ransac: the minimal archetype (no refine, no degenerate) composes wit
   REQUIRE(report.success);
   CHECK(report.model == Approx(5.0).margin(0.1));
   CHECK_FALSE(report.final_refit);  // no refine: silently skipped
+  CHECK(report.best_updates >= 1);
+  CHECK(report.local_optimizations == 0);  // Refit without refine does nothing
   CHECK(report.local_optimization_improvements == 0);
   CHECK(report.inliers.size() >= 95);
 }
@@ -322,7 +326,8 @@ TEST_CASE("Ransac: FixedIterations runs exactly max_iterations (the paper's 1000
   REQUIRE(report.success);
   CHECK(report.iterations == 1000);
   CHECK(report.hypotheses_generated == 1000);
-  CHECK(report.local_optimizations >= 1);  // counted even when the policy does nothing
+  CHECK(report.best_updates >= 1);
+  CHECK(report.local_optimizations == 0);  // NoLocalOptimization does no work
   CHECK(report.local_optimization_improvements == 0);
   // confidence = 1 makes Adaptive do the same.
   auto options = line_options();

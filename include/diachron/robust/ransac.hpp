@@ -256,10 +256,12 @@ typename Ransac<E, Sa, Sc, T, L>::Report Ransac<E, Sa, Sc, T, L>::run(const Datu
         best_model = slot.model;
         best = slot.support;
         has_best = true;
-        ++report.local_optimizations;
+        ++report.best_updates;
+        const std::size_t evaluations_before = report.residual_evaluations;
         if (local_optimization_.optimize(problem, best_model, best, report.residual_evaluations)) {
           ++report.local_optimization_improvements;
         }
+        if (report.residual_evaluations != evaluations_before) ++report.local_optimizations;
       }
       iteration = begin + j + 1;
       needed = needed_iterations(best.num_inliers, size);

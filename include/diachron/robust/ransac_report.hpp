@@ -44,7 +44,10 @@ struct RansacReport {
   /// Samples rejected as degenerate or giving no model (each one was redrawn or ended its
   /// iteration).
   std::size_t degenerate_samples = 0;
-  /// Local optimisations run (one per hypothesis that strictly beat the best so far).
+  /// Hypotheses that strictly beat the best so far (each one is handed to local optimisation).
+  std::size_t best_updates = 0;
+  /// Local optimisations that did some work (evaluated residuals); 0 with NoLocalOptimization or
+  /// with Refit on an estimator without `refine`.
   std::size_t local_optimizations = 0;
   /// Local optimisations that found a strictly better model.
   std::size_t local_optimization_improvements = 0;
