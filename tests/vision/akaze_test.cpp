@@ -14,6 +14,7 @@
 #include <diachron/core/random.hpp>
 #include <diachron/core/raster.hpp>
 #include <diachron/core/types.hpp>
+#include <diachron/tiling/pair_matcher.hpp>
 #include <diachron/vision/akaze.hpp>
 #include <diachron/vision/extractor_pair_matcher.hpp>
 #include <diachron/vision/image.hpp>
@@ -133,6 +134,8 @@ TEST_CASE("AkazeExtractor: max_features keeps the strongest; upright has no angl
 
 TEST_CASE("ExtractorPairMatcher<AkazeExtractor>: Hamming matching recovers a shift and a similarity",
           "[vision]") {
+  static_assert(diachron::check_feature_extractor<diachron::AkazeExtractor>());
+  static_assert(diachron::check_pair_matcher<diachron::ExtractorPairMatcher<diachron::AkazeExtractor>>());
   const diachron::ExtractorPairMatcher<diachron::AkazeExtractor> matcher;
   CHECK(matcher.metric() == diachron::DescriptorMetric::Hamming);
   const Raster<std::uint8_t> a = textured(480, 360, 13);

@@ -13,6 +13,7 @@
 #include <diachron/core/random.hpp>
 #include <diachron/core/raster.hpp>
 #include <diachron/core/types.hpp>
+#include <diachron/tiling/pair_matcher.hpp>
 #include <diachron/vision/extractor_pair_matcher.hpp>
 #include <diachron/vision/image.hpp>
 #include <diachron/vision/root_sift.hpp>
@@ -199,4 +200,27 @@ TEST_CASE("SiftExtractor: keypoint angles turn by +pi/2 when the image turns 90 
   INFO("matches: " << matches.size() << ", located: " << located << ", turned by pi/2: " << turned);
   REQUIRE(located >= 50);
   CHECK(static_cast<double>(turned) >= 0.9 * static_cast<double>(located));
+}
+
+namespace {
+// A user's extractor without descriptor_metric(): ExtractorPairMatcher falls back to L2.
+struct PlainSift {
+  diachron::Features extract(const Raster<std::uint8_t>& image) const { return diachron::SiftExtractor().extract(image); }
+};
+}  // namespace
+
+TEST_CASE("ExtractorPairMatcher: satisfies the PairMatcher concept, with any FeatureExtractor", "[vision]") {
+  static_assert(diachron::check_feature_extractor<diachron::SiftExtractor>());
+  static_assert(diachron::check_feature_extractor<diachron::RootSiftExtractor>());
+  static_assert(diachron::check_pair_matcher<diachron::ExtractorPairMatcher<diachron::SiftExtractor>>());
+  static_assert(diachron::check_pair_matcher<diachron::ExtractorPairMatcher<PlainSift>>());
+  const diachron::ExtractorPairMatcher<PlainSift> plain;
+  CHECK(plain.metric() == diachron::DescriptorMetric::L2);
+  const Raster<std::uint8_t> a = textured(320, 240, 8);
+  const diachron::ExtractorPairMatcher<diachron::SiftExtractor> sift;
+  const auto m1 = plain.match(a, a);
+  const auto m2 = sift.match(a, a);
+  REQUIRE(m1.size() == m2.size());
+  CHECK(m1.size() > 100);
+  for (std::size_t i = 0; i < m1.size(); ++i) CHECK(m1[i].a == m2[i].a);
 }

@@ -18,6 +18,7 @@
 #include <diachron/core/random.hpp>
 #include <diachron/core/raster.hpp>
 #include <diachron/core/types.hpp>
+#include <diachron/tiling/pair_matcher.hpp>
 #include <diachron/vision/image.hpp>
 #include <diachron/vision/xfeat.hpp>
 
@@ -176,6 +177,8 @@ TEST_CASE("XFeatExtractor: keypoints of a tile twice as large map back exactly",
 TEST_CASE("XFeatPairMatcher: recovers known shifts on a textured tile", "[vision]") {
   const auto model = diachron::test::model_file("xfeat/xfeat.onnx");
   DIACHRON_REQUIRE_FILE_OR_SKIP(model, "the XFeat ONNX model");
+  static_assert(diachron::check_feature_extractor<diachron::XFeatExtractor>());
+  static_assert(diachron::check_pair_matcher<diachron::XFeatPairMatcher>());
   const diachron::XFeatPairMatcher matcher(*model);
   const Raster<std::uint8_t> a = rectangles(640, 480, 23);
   const diachron::Features fa = matcher.extractor().extract(a);

@@ -372,16 +372,31 @@ class XFeatExtractor {
   }
 
   std::vector<cv::Mat> forward(const cv::Mat& blob) const {
-    std::unique_ptr<cv::dnn::Net> net = pool_->acquire();
+    // Returns the network to the pool on every path; one whose forward pass failed is dropped.
+    struct Lease {
+      detail::XFeatNetPool& pool;
+      std::unique_ptr<cv::dnn::Net> net;
+      bool healthy = false;
+      ~Lease() {
+        if (healthy) {
+          pool.release(std::move(net));
+        } else {
+          pool.forget();
+        }
+      }
+    };
+    Lease lease{*pool_, pool_->acquire()};
     std::vector<cv::Mat> outs;
     try {
-      net->setInput(blob);
-      net->forward(outs, std::vector<cv::String>{"output", "1266", "266"});
+      lease.net->setInput(blob);
+      lease.net->forward(outs, std::vector<cv::String>{"output", "1266", "266"});
+      // The output Mats may share memory with the network's internal blobs, which the next forward
+      // pass (possibly another thread's, once the network is back in the pool) overwrites: own them.
+      for (cv::Mat& out : outs) out = out.clone();
     } catch (const cv::Exception& e) {
-      pool_->forget();
       DIACHRON_CHECK(false, "XFeatExtractor: the forward pass of '" << model_path() << "' failed: " << e.what());
     }
-    pool_->release(std::move(net));
+    lease.healthy = true;
     DIACHRON_CHECK(outs.size() == 3, "the XFeat model '" << model_path() << "' returned " << outs.size()
                                                          << " outputs instead of 3");
     return outs;
