@@ -37,8 +37,9 @@ Sample sample_of(const Helmert3& model, const Eigen::Vector3d& a, const Eigen::V
 
 Eigen::Vector3d random_point(diachron::RandomStream& random, const Eigen::Vector3d& centre,
                              const Eigen::Vector3d& extent) {
-  return centre + Eigen::Vector3d(random.uniform(-1, 1), random.uniform(-1, 1), random.uniform(-1, 1))
-                      .cwiseProduct(extent);
+  return centre +
+         Eigen::Vector3d(random.uniform(-1, 1), random.uniform(-1, 1), random.uniform(-1, 1))
+             .cwiseProduct(extent);
 }
 
 }  // namespace
@@ -54,9 +55,9 @@ TEST_CASE("Helmert3Estimator: exact recovery from a minimal sample", "[geometry]
         const Helmert3 epoch2_from_epoch1 = Helmert3::from_axis_angle(
             scale, axis * angle, random_point(random, {0, 0, 0}, {100, 100, 100}));
         const Eigen::Vector3d extent(500, 500, 50);
-        const Sample sample =
-            sample_of(epoch2_from_epoch1, random_point(random, {0, 0, 0}, extent),
-                      random_point(random, {0, 0, 0}, extent), random_point(random, {0, 0, 0}, extent));
+        const Sample sample = sample_of(epoch2_from_epoch1, random_point(random, {0, 0, 0}, extent),
+                                        random_point(random, {0, 0, 0}, extent),
+                                        random_point(random, {0, 0, 0}, extent));
         REQUIRE_FALSE(estimator.degenerate(sample));
         const auto models = estimator.minimal(sample);
         REQUIRE(models.size() == 1);
@@ -81,7 +82,8 @@ TEST_CASE("Helmert3Estimator: UTM coordinates keep sub-micrometre residuals", "[
     const Eigen::Matrix3d r = diachron::rotation_from_axis_angle<double>(axis * angle);
     const double scale = 0.9995;
     // Rotate about a UTM point so that the target stays in UTM range.
-    const Helmert3 epoch2_from_epoch1{scale, r, utm - scale * (r * utm) + Eigen::Vector3d(4, -9, 2)};
+    const Helmert3 epoch2_from_epoch1{scale, r,
+                                      utm - scale * (r * utm) + Eigen::Vector3d(4, -9, 2)};
     for (int trial = 0; trial < 20; ++trial) {
       const Eigen::Vector3d extent(2000, 2000, 200);
       const Sample sample =
@@ -135,14 +137,16 @@ TEST_CASE("Helmert3Estimator: degenerate detects coincident and collinear triang
   const Sample through_origin = sample_of(h, {1, 1, 0}, {0, 2, 0}, {3, 0, 0});
   CHECK_FALSE(estimator.degenerate(through_origin));
   REQUIRE(estimator.minimal(through_origin).size() == 1);
-  CHECK(diachron::rotation_distance(estimator.minimal(through_origin)[0].rotation, h.rotation) < 1e-12);
+  CHECK(diachron::rotation_distance(estimator.minimal(through_origin)[0].rotation, h.rotation) <
+        1e-12);
   const Sample origin_vertex = sample_of(h, {0, 0, 0}, {1, 1, 1}, {2, 2, -3});
   CHECK_FALSE(estimator.degenerate(origin_vertex));
 
   // Scale invariance: the same shape is (non-)degenerate at every size.
   for (double size : {1e-3, 1.0, 1e6}) {
     CHECK_FALSE(estimator.degenerate(sample_of(h, {0, 0, 0}, {size, 0, 0}, {0, size * 1e-3, 0})));
-    CHECK(estimator.degenerate(sample_of(h, {0, 0, 0}, {size, 0, 0}, {0.5 * size, size * 1e-8, 0})));
+    CHECK(
+        estimator.degenerate(sample_of(h, {0, 0, 0}, {size, 0, 0}, {0.5 * size, size * 1e-8, 0})));
   }
 }
 
@@ -152,7 +156,8 @@ TEST_CASE("Helmert3Estimator: refine is weighted least squares", "[geometry]") {
   std::vector<PointPair3> data;
   for (int i = 0; i < 40; ++i) {
     const Eigen::Vector3d x = random_point(random, {0, 0, 0}, {1000, 1000, 100});
-    data.push_back({x, truth(x) + 0.5 * Eigen::Vector3d(random.normal(), random.normal(), random.normal())});
+    data.push_back(
+        {x, truth(x) + 0.5 * Eigen::Vector3d(random.normal(), random.normal(), random.normal())});
   }
   const Helmert3Estimator estimator;
   const diachron::Subset<PointPair3> all(data.data(), data.size());
@@ -196,7 +201,8 @@ TEST_CASE("Helmert3Estimator: options (symmetric scale, rigid, Check)", "[geomet
   std::vector<PointPair3> forward, backward;
   for (int i = 0; i < 30; ++i) {
     const Eigen::Vector3d x = random_point(random, {0, 0, 0}, {50, 50, 50});
-    const Eigen::Vector3d y = truth(x) + Eigen::Vector3d(random.normal(), random.normal(), random.normal());
+    const Eigen::Vector3d y =
+        truth(x) + Eigen::Vector3d(random.normal(), random.normal(), random.normal());
     forward.push_back({x, y});
     backward.push_back({y, x});
   }

@@ -4,10 +4,10 @@
 #include <cmath>
 #include <vector>
 
+#include <ceres/jet.h>
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <catch2/catch.hpp>
-#include <ceres/jet.h>
 
 #include <diachron/core/random.hpp>
 #include <diachron/core/types.hpp>
@@ -26,15 +26,18 @@ bool is_rotation(const Eigen::Matrix3d& r, double tolerance = 1e-12) {
 }
 
 Helmert3 random_helmert(diachron::RandomStream& random) {
-  return Helmert3{random.uniform(0.1, 10.0), diachron::random_rotation(random),
-                  {random.uniform(-100, 100), random.uniform(-100, 100), random.uniform(-100, 100)}};
+  return Helmert3{
+      random.uniform(0.1, 10.0),
+      diachron::random_rotation(random),
+      {random.uniform(-100, 100), random.uniform(-100, 100), random.uniform(-100, 100)}};
 }
 
 }  // namespace
 
 TEST_CASE("Helmert3: maps epoch 1 into epoch 2 as scale * R * X1 + T", "[geometry]") {
   const Helmert3 epoch2_from_epoch1 = Helmert3::from_axis_angle(
-      /*scale=*/2.0, /*axis_angle=*/Eigen::Vector3d(0, 0, kPi / 2), /*translation=*/{1.0, 2.0, 3.0});
+      /*scale=*/2.0, /*axis_angle=*/Eigen::Vector3d(0, 0, kPi / 2),
+      /*translation=*/{1.0, 2.0, 3.0});
   const Eigen::Vector3d x2 = epoch2_from_epoch1(Eigen::Vector3d(1.0, 0.0, 5.0));
   CHECK((x2 - Eigen::Vector3d(1.0, 4.0, 13.0)).norm() < 1e-14);
 
@@ -42,7 +45,7 @@ TEST_CASE("Helmert3: maps epoch 1 into epoch 2 as scale * R * X1 + T", "[geometr
   const Eigen::Vector4d h = epoch2_from_epoch1.matrix() * p.homogeneous();
   CHECK((h.head<3>() - epoch2_from_epoch1(p)).norm() < 1e-12);
   CHECK((Helmert3::identity()(p) - p).norm() == 0.0);
-  CHECK((Helmert3{}(p) - p).norm() == 0.0);
+  CHECK((Helmert3{}(p)-p).norm() == 0.0);
 }
 
 TEST_CASE("Helmert3: inverse and composition identities", "[geometry]") {
@@ -55,7 +58,8 @@ TEST_CASE("Helmert3: inverse and composition identities", "[geometry]") {
     CHECK(is_rotation(epoch3_from_epoch1.rotation));
     CHECK(epoch1_from_epoch2.scale == Approx(1.0 / epoch2_from_epoch1.scale));
     for (int k = 0; k < 5; ++k) {
-      const Eigen::Vector3d x(random.uniform(-50, 50), random.uniform(-50, 50), random.uniform(-50, 50));
+      const Eigen::Vector3d x(random.uniform(-50, 50), random.uniform(-50, 50),
+                              random.uniform(-50, 50));
       CHECK((epoch1_from_epoch2(epoch2_from_epoch1(x)) - x).norm() < 1e-10 * (1 + x.norm()));
       const Eigen::Vector3d expected = epoch3_from_epoch2(epoch2_from_epoch1(x));
       CHECK((epoch3_from_epoch1(x) - expected).norm() < 1e-10 * (1 + expected.norm()));
@@ -80,7 +84,8 @@ TEST_CASE("Helmert3: yaw-pitch-roll is Rz * Ry * Rx", "[geometry]") {
   CHECK((h.translation - Eigen::Vector3d(5, 0, 1)).norm() == 0.0);
 }
 
-TEST_CASE("Rotation helpers: axis-angle agrees with Eigen, also near 0 and 180 degrees", "[geometry]") {
+TEST_CASE("Rotation helpers: axis-angle agrees with Eigen, also near 0 and 180 degrees",
+          "[geometry]") {
   diachron::RandomStream random(5);
   for (double angle : {0.0, 1e-12, 1e-7, 0.5, 2.0, kPi - 1e-9, kPi, kPi - 1e-6}) {
     for (int k = 0; k < 10; ++k) {

@@ -29,8 +29,8 @@ Homography2 example_homography() {
   return Homography2{h};
 }
 
-std::vector<PointPair2> make_pairs(const Homography2& h, std::size_t n, diachron::RandomStream& random,
-                                   Vec2 offset = Vec2::Zero()) {
+std::vector<PointPair2> make_pairs(const Homography2& h, std::size_t n,
+                                   diachron::RandomStream& random, Vec2 offset = Vec2::Zero()) {
   std::vector<PointPair2> pairs;
   while (pairs.size() < n) {
     const Vec2 x = offset + Vec2(random.uniform(0, 2000), random.uniform(0, 1500));
@@ -140,9 +140,7 @@ TEST_CASE("Homography2: DLT least squares under noise stays close", "[geometry]"
 
 TEST_CASE("Homography2: degenerate configurations give nullopt", "[geometry]") {
   const Homography2 truth = example_homography();
-  auto pair_at = [&](double x, double y) {
-    return PointPair2{Vec2(x, y), *truth(Vec2(x, y))};
-  };
+  auto pair_at = [&](double x, double y) { return PointPair2{Vec2(x, y), *truth(Vec2(x, y))}; };
   // Fewer than 4 pairs.
   std::vector<PointPair2> three = {pair_at(0, 0), pair_at(100, 0), pair_at(0, 100)};
   CHECK_FALSE(diachron::estimate_homography(three));
@@ -158,7 +156,8 @@ TEST_CASE("Homography2: degenerate configurations give nullopt", "[geometry]") {
   std::vector<PointPair2> same(6, pair_at(50, 50));
   CHECK_FALSE(diachron::estimate_homography(same));
   // Non-finite.
-  std::vector<PointPair2> with_nan = {pair_at(0, 0), pair_at(100, 0), pair_at(0, 100), pair_at(100, 100)};
+  std::vector<PointPair2> with_nan = {pair_at(0, 0), pair_at(100, 0), pair_at(0, 100),
+                                      pair_at(100, 100)};
   with_nan[2].target.y() = std::nan("");
   CHECK_FALSE(diachron::estimate_homography(with_nan));
   with_nan[2].target.y() = 100.0;

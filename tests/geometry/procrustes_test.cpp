@@ -26,9 +26,9 @@ namespace {
 const std::vector<double> kAngles = {0.0, 0.3, -2.0, kPi / 2, kPi - 1e-9, kPi, -kPi + 1e-6};
 const std::vector<double> kScales = {0.01, 0.3, 1.0, 7.0, 100.0};
 
-std::vector<PointPair2> make_pairs2(const Similarity2& b_from_a, std::size_t n, Eigen::Vector2d centre,
-                                    double extent, diachron::RandomStream& random,
-                                    double noise = 0.0) {
+std::vector<PointPair2> make_pairs2(const Similarity2& b_from_a, std::size_t n,
+                                    Eigen::Vector2d centre, double extent,
+                                    diachron::RandomStream& random, double noise = 0.0) {
   std::vector<PointPair2> pairs;
   for (std::size_t i = 0; i < n; ++i) {
     const Eigen::Vector2d x =
@@ -46,8 +46,9 @@ std::vector<PointPair3> make_pairs3(const Helmert3& epoch2_from_epoch1, std::siz
     const Eigen::Vector3d x = centre + Eigen::Vector3d(random.uniform(-1, 1), random.uniform(-1, 1),
                                                        random.uniform(-1, 1))
                                            .cwiseProduct(extent);
-    pairs.push_back({x, epoch2_from_epoch1(x) + noise * Eigen::Vector3d(random.normal(), random.normal(),
-                                                                        random.normal())});
+    pairs.push_back(
+        {x, epoch2_from_epoch1(x) +
+                noise * Eigen::Vector3d(random.normal(), random.normal(), random.normal())});
   }
   return pairs;
 }
@@ -89,14 +90,16 @@ TEST_CASE("Procrustes: exact 2D recovery for all angles and scales", "[geometry]
   }
 }
 
-TEST_CASE("Procrustes: exact 3D recovery for rotations up to 180 degrees and scales", "[geometry]") {
+TEST_CASE("Procrustes: exact 3D recovery for rotations up to 180 degrees and scales",
+          "[geometry]") {
   diachron::RandomStream random(2);
   for (double angle : {0.0, 0.3, 2.0, kPi - 1e-9, kPi, kPi - 1e-6}) {
     for (double scale : kScales) {
       const Eigen::Vector3d axis =
           Eigen::Vector3d(random.normal(), random.normal(), random.normal()).normalized();
       const Helmert3 truth = Helmert3::from_axis_angle(
-          scale, axis * angle, {random.uniform(-50, 50), random.uniform(-50, 50), random.uniform(-50, 50)});
+          scale, axis * angle,
+          {random.uniform(-50, 50), random.uniform(-50, 50), random.uniform(-50, 50)});
       for (std::size_t n : {3u, 4u, 50u}) {
         const auto pairs = make_pairs3(truth, n, {0, 0, 0}, {100, 100, 100}, random);
         const std::optional<Helmert3> fit = diachron::fit_helmert3(pairs);
@@ -150,8 +153,9 @@ TEST_CASE("Procrustes: UTM-sized coordinates give sub-micrometre residuals", "[g
   CHECK(worst < 1e-6);
 }
 
-TEST_CASE("Procrustes: equal weights reproduce the unweighted fit, integer weights duplicate points",
-          "[geometry]") {
+TEST_CASE(
+    "Procrustes: equal weights reproduce the unweighted fit, integer weights duplicate points",
+    "[geometry]") {
   diachron::RandomStream random(4);
   const Helmert3 truth = Helmert3::from_axis_angle(1.5, {0.2, -0.4, 1.0}, {1, 2, 3});
   const auto pairs = make_pairs3(truth, 40, {0, 0, 0}, {50, 50, 10}, random, /*noise=*/0.5);
@@ -315,7 +319,8 @@ TEST_CASE("Procrustes: reflected data still give a proper rotation", "[geometry]
   diachron::RandomStream random(9);
   std::vector<PointPair3> slab;
   for (int i = 0; i < 20; ++i) {
-    const Eigen::Vector3d x(random.uniform(-10, 10), random.uniform(-10, 10), random.uniform(-1, 1));
+    const Eigen::Vector3d x(random.uniform(-10, 10), random.uniform(-10, 10),
+                            random.uniform(-1, 1));
     slab.push_back({x, Eigen::Vector3d(x.x(), x.y(), -x.z())});
   }
   const auto slab_fit = diachron::fit_helmert3(slab);
@@ -364,13 +369,12 @@ TEST_CASE("Procrustes: degenerate input gives nullopt, bad weights throw", "[geo
   CHECK_FALSE(diachron::fit_helmert3(collinear));
 
   // Non-collinear source onto a collinear target: no rotation fits.
-  std::vector<PointPair3> onto_line = {{{0, 0, 0}, {0, 0, 0}}, {{1, 0, 0}, {1, 0, 0}},
-                                       {{0, 1, 0}, {2, 0, 0}}};
+  std::vector<PointPair3> onto_line = {
+      {{0, 0, 0}, {0, 0, 0}}, {{1, 0, 0}, {1, 0, 0}}, {{0, 1, 0}, {2, 0, 0}}};
   CHECK_FALSE(diachron::fit_helmert3(onto_line));
 
-  std::vector<PointPair3> good = {{{0, 0, 0}, truth({0, 0, 0})},
-                                  {{1, 0, 0}, truth({1, 0, 0})},
-                                  {{0, 1, 0}, truth({0, 1, 0})}};
+  std::vector<PointPair3> good = {
+      {{0, 0, 0}, truth({0, 0, 0})}, {{1, 0, 0}, truth({1, 0, 0})}, {{0, 1, 0}, truth({0, 1, 0})}};
   const std::vector<double> zeros(3, 0.0);
   CHECK_FALSE(diachron::fit_helmert3(good, zeros.data()));
   const std::vector<double> one_nonzero = {0.0, 1.0, 0.0};

@@ -30,7 +30,8 @@ namespace {
 
 double angle_difference(double a, double b) { return std::abs(diachron::wrap_angle(a - b)); }
 
-Similarity2Estimator::Sample sample_of(const Similarity2& model, Eigen::Vector2d a, Eigen::Vector2d b) {
+Similarity2Estimator::Sample sample_of(const Similarity2& model, Eigen::Vector2d a,
+                                       Eigen::Vector2d b) {
   return {PointPair2{a, model(a)}, PointPair2{b, model(b)}};
 }
 
@@ -43,9 +44,8 @@ TEST_CASE("Similarity2Estimator: exact recovery from a minimal sample", "[geomet
     for (double scale : {0.01, 0.1, 1.0, 10.0, 100.0}) {
       const Similarity2 truth{scale, angle, {random.uniform(-500, 500), random.uniform(-500, 500)}};
       for (int trial = 0; trial < 5; ++trial) {
-        const auto sample =
-            sample_of(truth, {random.uniform(0, 4000), random.uniform(0, 3000)},
-                      {random.uniform(0, 4000), random.uniform(0, 3000)});
+        const auto sample = sample_of(truth, {random.uniform(0, 4000), random.uniform(0, 3000)},
+                                      {random.uniform(0, 4000), random.uniform(0, 3000)});
         REQUIRE_FALSE(estimator.degenerate(sample));
         const auto models = estimator.minimal(sample);
         REQUIRE(models.size() == 1);
@@ -55,7 +55,8 @@ TEST_CASE("Similarity2Estimator: exact recovery from a minimal sample", "[geomet
         CHECK(model.angle > -kPi);
         CHECK(model.angle <= kPi);
         CHECK((model.translation - truth.translation).norm() < 1e-8 * (1 + scale));
-        for (const auto& pair : sample) CHECK(estimator.residual(model, pair) < 1e-9 * scale * 4000);
+        for (const auto& pair : sample)
+          CHECK(estimator.residual(model, pair) < 1e-9 * scale * 4000);
         // Every other point of the same transform fits too.
         const Eigen::Vector2d x(random.uniform(0, 4000), random.uniform(0, 3000));
         CHECK(estimator.residual(model, {x, truth(x)}) < 1e-9 * scale * 4000);
@@ -73,12 +74,15 @@ TEST_CASE("Similarity2Estimator: UTM coordinates keep sub-micrometre residuals",
     const Similarity2 rotate{1.0002, angle, {0, 0}};
     const Similarity2 truth{1.0002, angle, utm - rotate(utm) + Eigen::Vector2d(7, -3)};
     for (int trial = 0; trial < 20; ++trial) {
-      const Eigen::Vector2d a = utm + Eigen::Vector2d(random.uniform(-2e3, 2e3), random.uniform(-2e3, 2e3));
-      const Eigen::Vector2d b = utm + Eigen::Vector2d(random.uniform(-2e3, 2e3), random.uniform(-2e3, 2e3));
+      const Eigen::Vector2d a =
+          utm + Eigen::Vector2d(random.uniform(-2e3, 2e3), random.uniform(-2e3, 2e3));
+      const Eigen::Vector2d b =
+          utm + Eigen::Vector2d(random.uniform(-2e3, 2e3), random.uniform(-2e3, 2e3));
       const auto models = estimator.minimal(sample_of(truth, a, b));
       REQUIRE(models.size() == 1);
       for (int k = 0; k < 10; ++k) {
-        const Eigen::Vector2d x = utm + Eigen::Vector2d(random.uniform(-2e3, 2e3), random.uniform(-2e3, 2e3));
+        const Eigen::Vector2d x =
+            utm + Eigen::Vector2d(random.uniform(-2e3, 2e3), random.uniform(-2e3, 2e3));
         worst = std::max(worst, estimator.residual(models[0], {x, truth(x)}));
       }
     }
@@ -87,7 +91,8 @@ TEST_CASE("Similarity2Estimator: UTM coordinates keep sub-micrometre residuals",
   CHECK(worst < 1e-6);
 }
 
-TEST_CASE("Similarity2Estimator: residual is the Euclidean distance in the target frame", "[geometry]") {
+TEST_CASE("Similarity2Estimator: residual is the Euclidean distance in the target frame",
+          "[geometry]") {
   const Similarity2Estimator estimator;
   const Similarity2 model{2.0, kPi / 2, {1.0, 1.0}};
   // model((1, 0)) = (1, 3); the target is 3 right and 4 up of it.
@@ -98,15 +103,18 @@ TEST_CASE("Similarity2Estimator: residual is the Euclidean distance in the targe
   CHECK(estimator.residual(bigger, {{1.0, 0.0}, {21.0, 0.0}}) == Approx(1.0));
 }
 
-TEST_CASE("Similarity2Estimator: minimal never returns non-finite or degenerate models", "[geometry]") {
+TEST_CASE("Similarity2Estimator: minimal never returns non-finite or degenerate models",
+          "[geometry]") {
   const Similarity2Estimator estimator;
   const double nan = std::numeric_limits<double>::quiet_NaN();
   const double inf = std::numeric_limits<double>::infinity();
   using Sample = Similarity2Estimator::Sample;
   CHECK(estimator.minimal(Sample{PointPair2{{1, 2}, {3, 4}}, PointPair2{{1, 2}, {5, 6}}}).empty());
   CHECK(estimator.minimal(Sample{PointPair2{{1, 2}, {3, 4}}, PointPair2{{5, 2}, {3, 4}}}).empty());
-  CHECK(estimator.minimal(Sample{PointPair2{{nan, 2}, {3, 4}}, PointPair2{{5, 2}, {3, 7}}}).empty());
-  CHECK(estimator.minimal(Sample{PointPair2{{1, 2}, {3, inf}}, PointPair2{{5, 2}, {3, 7}}}).empty());
+  CHECK(
+      estimator.minimal(Sample{PointPair2{{nan, 2}, {3, 4}}, PointPair2{{5, 2}, {3, 7}}}).empty());
+  CHECK(
+      estimator.minimal(Sample{PointPair2{{1, 2}, {3, inf}}, PointPair2{{5, 2}, {3, 7}}}).empty());
   CHECK(estimator.minimal(Sample{PointPair2{{1e300, 2}, {3, 4}}, PointPair2{{-1e300, 2}, {3, 7}}})
             .empty());
 }
@@ -130,9 +138,11 @@ TEST_CASE("Similarity2Estimator: degenerate detects coincident points only", "[g
   REQUIRE(models.size() == 1);
   CHECK(models[0].scale == Approx(2.0));
   // Tiny coordinates are fine: the test is relative.
-  CHECK_FALSE(estimator.degenerate(Sample{PointPair2{{1e-9, 0}, {0, 0}}, PointPair2{{2e-9, 0}, {0, 1e-9}}}));
+  CHECK_FALSE(estimator.degenerate(
+      Sample{PointPair2{{1e-9, 0}, {0, 0}}, PointPair2{{2e-9, 0}, {0, 1e-9}}}));
   // Non-finite counts as degenerate.
-  CHECK(estimator.degenerate(Sample{PointPair2{{std::nan(""), 0}, {0, 0}}, PointPair2{{1, 0}, {0, 1}}}));
+  CHECK(estimator.degenerate(
+      Sample{PointPair2{{std::nan(""), 0}, {0, 0}}, PointPair2{{1, 0}, {0, 1}}}));
 }
 
 TEST_CASE("Similarity2Estimator: refine is weighted least squares", "[geometry]") {

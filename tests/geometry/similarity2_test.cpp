@@ -3,9 +3,9 @@
 #include <cmath>
 #include <vector>
 
+#include <ceres/jet.h>
 #include <Eigen/Core>
 #include <catch2/catch.hpp>
-#include <ceres/jet.h>
 
 #include <diachron/core/random.hpp>
 #include <diachron/core/types.hpp>
@@ -17,8 +17,8 @@ using diachron::Similarity2T;
 
 namespace {
 
-const std::vector<double> kAngles = {0.0,        0.3,       -2.0,      kPi / 2, kPi - 1e-9,
-                                     kPi,        -kPi + 1e-6, 3.0,      -3.1};
+const std::vector<double> kAngles = {0.0, 0.3,         -2.0, kPi / 2, kPi - 1e-9,
+                                     kPi, -kPi + 1e-6, 3.0,  -3.1};
 
 }  // namespace
 
@@ -48,7 +48,8 @@ TEST_CASE("Similarity2: inverse undoes the transform, also near 180 degrees", "[
   diachron::RandomStream random(7);
   for (double angle : kAngles) {
     for (double scale : {0.01, 0.5, 1.0, 3.0, 100.0}) {
-      const Similarity2 b_from_a{scale, angle, {random.uniform(-100, 100), random.uniform(-100, 100)}};
+      const Similarity2 b_from_a{
+          scale, angle, {random.uniform(-100, 100), random.uniform(-100, 100)}};
       const Similarity2 a_from_b = b_from_a.inverse();
       CHECK(a_from_b.scale == Approx(1.0 / scale));
       CHECK(a_from_b.angle > -kPi);
@@ -56,7 +57,7 @@ TEST_CASE("Similarity2: inverse undoes the transform, also near 180 degrees", "[
       for (int k = 0; k < 5; ++k) {
         const Eigen::Vector2d x(random.uniform(-50, 50), random.uniform(-50, 50));
         CHECK((a_from_b(b_from_a(x)) - x).norm() < 1e-9 * (1.0 + x.norm()));
-        CHECK(((b_from_a * a_from_b)(x) - x).norm() < 1e-9 * (1.0 + x.norm()) * scale);
+        CHECK(((b_from_a * a_from_b)(x)-x).norm() < 1e-9 * (1.0 + x.norm()) * scale);
       }
     }
   }
@@ -69,10 +70,10 @@ TEST_CASE("Similarity2: composition applies the right operand first", "[geometry
   diachron::RandomStream random(11);
   for (double angle_a : kAngles) {
     for (double angle_b : kAngles) {
-      const Similarity2 c_from_b{random.uniform(0.1, 10), angle_a,
-                                 {random.uniform(-10, 10), random.uniform(-10, 10)}};
-      const Similarity2 b_from_a{random.uniform(0.1, 10), angle_b,
-                                 {random.uniform(-10, 10), random.uniform(-10, 10)}};
+      const Similarity2 c_from_b{
+          random.uniform(0.1, 10), angle_a, {random.uniform(-10, 10), random.uniform(-10, 10)}};
+      const Similarity2 b_from_a{
+          random.uniform(0.1, 10), angle_b, {random.uniform(-10, 10), random.uniform(-10, 10)}};
       const Similarity2 c_from_a = c_from_b * b_from_a;
       CHECK(c_from_a.angle > -kPi);
       CHECK(c_from_a.angle <= kPi);
@@ -105,9 +106,7 @@ TEST_CASE("Similarity2: Ceres Jet derivatives match finite differences", "[geome
                                         Eigen::Matrix<Jet, 2, 1>(Jet(p[2], 2), Jet(p[3], 3))};
   const Eigen::Matrix<Jet, 2, 1> y = jet_transform(x.cast<Jet>());
 
-  auto evaluate = [&x](const double* q) {
-    return Similarity2{q[0], q[1], {q[2], q[3]}}(x);
-  };
+  auto evaluate = [&x](const double* q) { return Similarity2{q[0], q[1], {q[2], q[3]}}(x); };
   const double h = 1e-6;
   for (int k = 0; k < 4; ++k) {
     double plus[4] = {p[0], p[1], p[2], p[3]};

@@ -13,13 +13,14 @@ namespace diachron {
 /// A 3D Helmert (spatial similarity) `X2 = scale * rotation * X1 + translation`.
 ///
 /// - `scale`: dimensionless, > 0 for a valid transform (epoch-2 units per epoch-1 unit).
-/// - `rotation`: a proper rotation (orthonormal, det +1), 3x3; the struct does not re-orthonormalise.
+/// - `rotation`: a proper rotation (orthonormal, det +1), 3x3; not re-orthonormalised here.
 /// - `translation`: in the target (epoch 2) frame's units, usually metres.
 ///
 /// By convention (DESIGN.md section 5) a Helmert maps epoch 1 into epoch 2; name instances
 /// `epoch2_from_epoch1`. An aggregate:
 /// @code
-/// const Helmert3 epoch2_from_epoch1 = Helmert3::from_yaw_pitch_roll(1.02, 0.1, 0.0, 0.0, {5, 0, 1});
+/// const Helmert3 epoch2_from_epoch1 =
+///     Helmert3::from_yaw_pitch_roll(1.02, 0.1, 0.0, 0.0, {5.0, 0.0, 1.0});
 /// const Eigen::Vector3d x2 = epoch2_from_epoch1(x1);
 /// @endcode
 /// @tparam T double, float or ceres::Jet.

@@ -47,15 +47,15 @@ struct Helmert3EstimatorOptions {
 };
 
 /// Estimator of `X2 = scale * R * X1 + T` (a Helmert3, `epoch2_from_epoch1`) from PointPair3
-/// data (source in epoch 1, target in epoch 2), for diachron::Ransac. The paper runs it on DSM-lifted
-/// matches, with a threshold of 10 x the secondary image's GSD.
+/// data (source in epoch 1, target in epoch 2), for diachron::Ransac. The paper runs it on
+/// DSM-lifted matches, with a threshold of 10 x the secondary image's GSD.
 ///
 /// - minimal: 3 pairs (7 parameters from 9 equations), least squares on the sample, which is exact
 ///   on noise-free data; one model or none.
 /// - residual: |X2 - model(X1)| in target (epoch 2) units, not squared.
 /// - refine: weighted least squares (fit_helmert3).
 /// - degenerate: coincident or collinear source or target triangle. The test works on differences
-///   (centred data), so a triangle on a plane through the origin is fine, unlike an uncentred rank test.
+///   (centred data): a triangle on a plane through the origin is fine (unlike an uncentred rank).
 /// Stateless apart from its options; all members const, so one object can serve many threads.
 class Helmert3Estimator {
  public:
@@ -83,7 +83,8 @@ class Helmert3Estimator {
 
   /// |X2 - model(X1)| in target units.
   double residual(const Model& model, const Datum& datum) const {
-    return (model.scale * (model.rotation * datum.source) + model.translation - datum.target).norm();
+    return (model.scale * (model.rotation * datum.source) + model.translation - datum.target)
+        .norm();
   }
 
   /// Weighted least-squares Helmert on `data` (`initial` is not needed: the fit is closed form).
@@ -115,8 +116,8 @@ class Helmert3Estimator {
     const Eigen::Vector3d ab = b - a;
     const Eigen::Vector3d ac = c - a;
     const Eigen::Vector3d bc = c - b;
-    const double magnitude = std::max(
-        {a.cwiseAbs().maxCoeff(), b.cwiseAbs().maxCoeff(), c.cwiseAbs().maxCoeff()});
+    const double magnitude =
+        std::max({a.cwiseAbs().maxCoeff(), b.cwiseAbs().maxCoeff(), c.cwiseAbs().maxCoeff()});
     const double shortest2 = std::min({ab.squaredNorm(), ac.squaredNorm(), bc.squaredNorm()});
     const double longest2 = std::max({ab.squaredNorm(), ac.squaredNorm(), bc.squaredNorm()});
     const double twice_area = ab.cross(ac).norm();

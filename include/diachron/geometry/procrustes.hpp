@@ -20,8 +20,8 @@ namespace diachron {
 struct ProcrustesOptions {
   /// false: rigid fit, scale fixed to 1.
   bool estimate_scale = true;
-  /// Only with estimate_scale. false: Umeyama's scale, which minimises the weighted squared error in
-  /// the target frame (so scale(a->b) != 1 / scale(b->a) under noise). true: Horn's symmetric
+  /// Only with estimate_scale. false: Umeyama's scale, which minimises the weighted squared error
+  /// in the target frame (so scale(a->b) != 1 / scale(b->a) under noise). true: Horn's symmetric
   /// scale s = sqrt(sum w |y_c|^2 / sum w |x_c|^2), independent of the rotation, so fitting b->a
   /// gives exactly the inverse scale; pick it when neither epoch is privileged.
   bool symmetric_scale = false;
@@ -184,8 +184,7 @@ std::optional<Similarity2> fit_similarity2(const Pairs& pairs, const double* wei
   const std::optional<SimilarityFit<2>> fit = fit_similarity<2>(pairs, weights, options);
   if (!fit) return std::nullopt;
   // wrap_angle: atan2 gives -pi for a -0.0 sine, the convention is (-pi, pi].
-  return Similarity2{fit->scale,
-                     wrap_angle(std::atan2(fit->rotation(1, 0), fit->rotation(0, 0))),
+  return Similarity2{fit->scale, wrap_angle(std::atan2(fit->rotation(1, 0), fit->rotation(0, 0))),
                      fit->translation};
 }
 

@@ -1,7 +1,7 @@
 #pragma once
 /// @file
 /// Similarity2T: the 4-parameter 2D similarity (scale, rotation angle, translation) that maps a
-/// source image or DSM image into the target one. Scalar-templated so Ceres Jets can run through it.
+/// source image or DSM image into the target one. Scalar-templated for Ceres Jets.
 
 #include <cmath>
 

@@ -21,7 +21,7 @@ namespace diachron {
 
 /// Options of Similarity2Estimator.
 struct Similarity2EstimatorOptions {
-  /// false: rigid (scale fixed to 1; the minimal solver then returns the 2-point least-squares fit).
+  /// false: rigid (scale fixed to 1; minimal() then returns the 2-point least-squares fit).
   bool estimate_scale = true;
   /// Horn's symmetric scale in refine() (see ProcrustesOptions::symmetric_scale). The minimal
   /// solver is exact, so there both scales agree.
@@ -92,10 +92,10 @@ class Similarity2Estimator {
   double residual(const Model& model, const Datum& datum) const {
     const double a = model.scale * std::cos(model.angle);
     const double b = model.scale * std::sin(model.angle);
-    const double ex = a * datum.source.x() - b * datum.source.y() + model.translation.x() -
-                      datum.target.x();
-    const double ey = b * datum.source.x() + a * datum.source.y() + model.translation.y() -
-                      datum.target.y();
+    const double ex =
+        a * datum.source.x() - b * datum.source.y() + model.translation.x() - datum.target.x();
+    const double ey =
+        b * datum.source.x() + a * datum.source.y() + model.translation.y() - datum.target.y();
     return std::sqrt(ex * ex + ey * ey);
   }
 
