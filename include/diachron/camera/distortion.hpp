@@ -151,6 +151,8 @@ UndistortResult newton_invert(const Map& map, const Jacobian& jacobian, const Ve
     const double det = j.determinant();
     if (!(std::abs(det) > 0.0) || !std::isfinite(det)) break;
     const Vec2 step = j.inverse() * r;
+    // A step at the rounding level of xy cannot improve it; halving it would only burn evaluations.
+    if (step.norm() <= std::numeric_limits<double>::epsilon() * xy.norm()) break;
     // Backtracking keeps the iteration from jumping to another branch of a strongly folded
     // polynomial; it stops when no shorter step lowers the residual (stagnation at rounding level).
     double scale = 1.0;
