@@ -3,6 +3,7 @@
 /// Side-by-side drawing of two rasters with their matches, for inspection (examples write
 /// matches.png with it).
 
+#include <algorithm>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
