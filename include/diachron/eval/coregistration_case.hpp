@@ -40,6 +40,9 @@ struct CoregistrationCaseOptions {
   double noise_sigma_cells = 0.05;   ///< Gaussian height noise, in world cells (scaled into each frame)
   double hole_fraction = 0.05;       ///< fraction of each DSM covered by random circular holes, [0, 0.9]
   double hole_radius_px = 6.0;       ///< mean hole radius, pixels
+  /// Cut two windows with the drawn overlap (true), or use each DEM whole (false: the overlap is
+  /// whatever the DEMs share, e.g. a crater DEM inside a regional one).
+  bool crop_windows = true;
 
   void check() const {
     DIACHRON_CHECK(overlap_min > 0.0 && overlap_min <= overlap_max && overlap_max <= 1.0,
@@ -132,6 +135,7 @@ inline CoregistrationCase make_coregistration_case(const Dsm& master_world, cons
 
   // The common footprint of both DEMs, in world X/Y.
   const WorldBounds bm = master_world.bounds(), bs = secondary_world.bounds();
+  CoregistrationCase out;
   detail::WorldWindow common{std::max(bm.min_x, bs.min_x), std::max(bm.min_y, bs.min_y),
                              std::min(bm.max_x, bs.max_x), std::min(bm.max_y, bs.max_y)};
   DIACHRON_CHECK(common.width() > 0 && common.height() > 0, "the two DEMs do not overlap");
@@ -139,6 +143,7 @@ inline CoregistrationCase make_coregistration_case(const Dsm& master_world, cons
   // Two equal windows whose intersection is `overlap` of a window: offsets (1-a) w and (1-b) h with
   // a b = overlap; each window as large as fits in the common footprint.
   const double overlap = random.uniform(options.overlap_min, options.overlap_max);
+  out.overlap = overlap;
   const double a = random.uniform(overlap, 1.0);
   const double b = overlap / a;
   const double w = common.width() / (2.0 - a) * 0.999, h = common.height() / (2.0 - b) * 0.999;
@@ -147,15 +152,20 @@ inline CoregistrationCase make_coregistration_case(const Dsm& master_world, cons
   const double ox = common.x0 + random.uniform(0.0, std::max(slack_x, 0.0));
   const double oy = common.y0 + random.uniform(0.0, std::max(slack_y, 0.0));
   const bool master_left = random.uniform01() < 0.5, master_low = random.uniform01() < 0.5;
+  if (!options.crop_windows) {
+    // Whole DEMs: the windows are their footprints, the overlap what they share.
+    out.overlap = common.width() * common.height() / ((bm.max_x - bm.min_x) * (bm.max_y - bm.min_y));
+  }
   detail::WorldWindow win_m{ox + (master_left ? 0.0 : dx), oy + (master_low ? 0.0 : dy), 0, 0};
   detail::WorldWindow win_s{ox + (master_left ? dx : 0.0), oy + (master_low ? dy : 0.0), 0, 0};
   win_m.x1 = win_m.x0 + w;
   win_m.y1 = win_m.y0 + h;
   win_s.x1 = win_s.x0 + w;
   win_s.y1 = win_s.y0 + h;
-
-  CoregistrationCase out;
-  out.overlap = overlap;
+  if (!options.crop_windows) {
+    win_m = {bm.min_x, bm.min_y, bm.max_x, bm.max_y};
+    win_s = {bs.min_x, bs.min_y, bs.max_x, bs.max_y};
+  }
   const double world_cell = secondary_world.min_cell_size();
 
   // Secondary: the window cut from its DEM on its own grid, in the world frame.

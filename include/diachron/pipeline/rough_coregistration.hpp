@@ -1,0 +1,436 @@
+#pragma once
+/// @file
+/// Rough co-registration of two epochs from their DSMs (paper section 3.2.1): DSM images ->
+/// quarter-turn rotation hypotheses x one-to-many tiling with any PairMatcher -> 2D similarity
+/// RANSAC -> lift the inliers to 3D through both DSMs -> 3D Helmert (least squares, 3D RANSAC guard).
+///
+/// Generic in the PairMatcher; every stage is a component of its own (terrain/dsm_image.hpp,
+/// tiling/one_to_many.hpp, matching/rotation_hypotheses.hpp, robust/), so users can recompose it.
+
+#include <chrono>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include <diachron/core/error.hpp>
+#include <diachron/core/geo_transform.hpp>
+#include <diachron/core/progress.hpp>
+#include <diachron/core/raster.hpp>
+#include <diachron/core/types.hpp>
+#include <diachron/geometry/helmert3.hpp>
+#include <diachron/geometry/helmert3_estimator.hpp>
+#include <diachron/geometry/similarity2.hpp>
+#include <diachron/matching/point_match.hpp>
+#include <diachron/matching/rotation_hypotheses.hpp>
+#include <diachron/robust/chance_inliers.hpp>
+#include <diachron/robust/robust_estimation.hpp>
+#include <diachron/terrain/dsm.hpp>
+#include <diachron/terrain/dsm_image.hpp>
+#include <diachron/terrain/relief_image.hpp>
+#include <diachron/tiling/feature_cache_matcher.hpp>
+#include <diachron/tiling/grid_tiler.hpp>
+#include <diachron/tiling/one_to_many.hpp>
+#include <diachron/tiling/pair_matcher.hpp>
+
+namespace diachron {
+
+/// Which 8-bit image the DSMs are turned into before matching.
+enum class DsmImageKind {
+  kStretch,           ///< mean +- k sigma linear stretch only
+  kStretchWallis,     ///< the stretch, then the Wallis local-contrast filter (the paper; MicMac)
+  kHillshade,         ///< a hillshade lit from `hillshade.azimuth_deg` (turns with the frame)
+  kMultiHillshade,    ///< the mean of 8 hillshades lit from all around (terrain/relief_image.hpp)
+  kSlope,             ///< slope magnitude (terrain/relief_image.hpp)
+  kLocalRelief,       ///< z-score of the height in a box, on float heights (terrain/relief_image.hpp)
+};
+
+/// A short name for tables and command lines: stretch, wallis, hillshade, multihillshade, slope, relief.
+inline const char* to_string(DsmImageKind kind) {
+  switch (kind) {
+    case DsmImageKind::kStretch: return "stretch";
+    case DsmImageKind::kStretchWallis: return "wallis";
+    case DsmImageKind::kHillshade: return "hillshade";
+    case DsmImageKind::kMultiHillshade: return "multihillshade";
+    case DsmImageKind::kSlope: return "slope";
+    case DsmImageKind::kLocalRelief: return "relief";
+  }
+  return "?";
+}
+
+/// Options of rough_coregistration(). Defaults: the paper's, except where a measurement in
+/// docs/rough-coregistration.md chose otherwise (each field says which).
+struct RoughCoregistrationOptions {
+  /// DSM image variant. Stretch + Wallis is the paper's and MicMac's choice.
+  DsmImageKind image_kind = DsmImageKind::kStretchWallis;
+  /// The stretch: k = 2 in the paper ("values beyond 2 sigma are ignored"), 5 in MicMac today.
+  DsmImageOptions dsm_image{};
+  WallisOptions wallis{};
+  HillshadeOptions hillshade{};
+  SlopeImageOptions slope{};
+  LocalReliefOptions relief{};
+
+  /// Matches whose point lies closer than this to a DSM hole (in DSM pixels) are dropped before
+  /// RANSAC: the edge between data and fill is the strongest structure in a DSM image with holes,
+  /// and it is not terrain. 0 keeps them all.
+  double min_hole_distance_px = 6.0;
+
+  /// One-to-many tiling (every master tile with every secondary tile). Off matches whole images.
+  bool use_tiling = true;
+  /// Tile size in DSM-image pixels, no buffer: 640 x 480 in the paper's era, 1920 x 1440 in MicMac
+  /// today (which then resizes each tile to 640 x 480 for SuperGlue).
+  GridTilerOptions master_tiles{640, 480, 0, 0};
+  GridTilerOptions secondary_tiles{640, 480, 0, 0};
+
+  /// Try the four quarter-turns of the secondary image (paper: matchers are not invariant to
+  /// rotations beyond 45 degrees). Off tries 0 degrees only.
+  bool rotation_hypotheses = true;
+
+  /// 2D similarity RANSAC on DSM-image pixels: 10 px and 1000 iterations as the paper and MicMac.
+  /// The seed is also the pipeline's seed.
+  RansacOptions ransac_2d = [] {
+    RansacOptions o;
+    o.threshold = 10.0;
+    o.max_iterations = 1000;
+    return o;
+  }();
+
+  /// 3D guard: Helmert RANSAC threshold in secondary DSM cells (the 2D threshold, lifted). The
+  /// paper's 3D filter of precise matching uses 10 x GSD; here the DSM cell plays the GSD's part.
+  double ransac_3d_threshold_cells = 10.0;
+
+  /// Significance of the 2D result: the winner must have more inliers than random matches reach
+  /// with probability `alpha` over all hypotheses scored (robust/chance_inliers.hpp), and at least
+  /// `min_inliers_2d`. This is what makes "no overlap" a failure instead of a wrong Helmert.
+  double alpha = 1e-3;
+  std::size_t min_inliers_2d = 8;
+  /// Fewest 3D inliers (lifted 2D inliers that agree with the Helmert) for success.
+  std::size_t min_inliers_3d = 6;
+
+  /// Worker threads over tile pairs (0 = all cores). Results do not depend on it.
+  std::size_t threads = 0;
+  /// Progress over tile pairs, per rotation hypothesis. May be empty.
+  ProgressCallback progress;
+
+  void check() const {
+    dsm_image.check();
+    ransac_2d.check();
+    DIACHRON_CHECK(ransac_3d_threshold_cells > 0.0 && std::isfinite(ransac_3d_threshold_cells),
+                   "ransac_3d_threshold_cells must be positive, got " << ransac_3d_threshold_cells);
+    DIACHRON_CHECK(alpha > 0.0 && alpha < 1.0, "alpha must be in (0, 1), got " << alpha);
+    DIACHRON_CHECK(min_inliers_3d >= 3, "min_inliers_3d must be >= 3");
+  }
+};
+
+/// An 8-bit image on a georeferenced grid and the DSM its pixels are lifted with. For the DSM mode
+/// the image is the DSM image and `transform` the DSM's; for the orthophoto mode (paper 4.3) it is
+/// an orthophoto with its own geotransform in the same frame as `dsm`.
+struct GeoImage {
+  Raster<std::uint8_t> image;
+  GeoTransform transform;
+};
+
+/// Wall-clock seconds per stage.
+struct RoughCoregistrationTimings {
+  double images = 0.0;    ///< DSM images (stretch, Wallis or hillshade)
+  double matching = 0.0;  ///< tiling + pair matcher, all hypotheses
+  double ransac_2d = 0.0; ///< 2D similarity RANSAC, all hypotheses
+  double lift = 0.0;      ///< 2D inliers to 3D through both DSMs
+  double helmert = 0.0;   ///< least squares + 3D RANSAC guard
+  double total = 0.0;
+};
+
+/// What rough_coregistration() found. Defaults mean failure.
+struct RoughCoregistrationReport {
+  bool success = false;
+  std::string message = "not run";  ///< why it failed, or a one-line summary on success
+
+  /// The result: X2 = scale R X1 + T maps epoch 1 (master) into epoch 2 (secondary, reference).
+  Helmert3 epoch2_from_epoch1 = Helmert3::identity();
+  /// secondary image px = image_similarity(master image px), from the winning hypothesis.
+  Similarity2 image_similarity{};
+
+  /// Per hypothesis (rotation of the secondary image, clockwise degrees): matches and 2D inliers.
+  std::vector<RotationHypothesisResult> hypotheses;
+  int best_rotation_deg = -1;  ///< winning quarter-turn, -1 when none won
+
+  std::size_t tile_pairs = 0;          ///< tile pairs matched per hypothesis
+  std::size_t matches_2d = 0;          ///< tentative matches of the winner
+  std::size_t required_inliers_2d = 0; ///< significance bound the winner had to reach
+  PointMatches inliers_2d;             ///< the winner's 2D inliers (master image px, secondary image px)
+  std::vector<PointPair3> lifted;      ///< inliers lifted to 3D (both DSM heights valid)
+  std::vector<std::size_t> inliers_3d; ///< indices into `lifted` that agree with the Helmert
+  double rms_3d = 0.0;                 ///< RMS 3D residual of those, secondary units
+
+  RoughCoregistrationTimings seconds;
+};
+
+/// The 8-bit image of a DSM as `options.image_kind` says.
+inline Raster<std::uint8_t> make_dsm_image(const Dsm& dsm, const RoughCoregistrationOptions& options) {
+  switch (options.image_kind) {
+    case DsmImageKind::kHillshade: return hillshade(dsm, options.hillshade);
+    case DsmImageKind::kMultiHillshade: return multidirectional_hillshade(dsm, 8, options.hillshade);
+    case DsmImageKind::kSlope: return slope_image(dsm, options.slope);
+    case DsmImageKind::kLocalRelief: return local_relief_image(dsm, options.relief);
+    default: break;
+  }
+  DsmImage stretched = dsm_to_image(dsm, options.dsm_image);
+  if (options.image_kind == DsmImageKind::kStretch) return std::move(stretched.image);
+  return wallis_filter(stretched.image, options.wallis, options.dsm_image.make_mask ? &stretched.mask : nullptr);
+}
+
+/// Rough co-registration from two georeferenced 8-bit images and the DSMs that lift their pixels to
+/// 3D (the orthophoto mode, and the core of the DSM mode). Master = epoch 1 (moved), secondary =
+/// epoch 2 (reference). Throws diachron::Error for empty inputs or invalid options; "no
+/// co-registration found" is `success == false` with the reason.
+template <class Matcher>
+RoughCoregistrationReport rough_coregistration_images(const GeoImage& master, const Dsm& master_dsm,
+                                                      const GeoImage& secondary, const Dsm& secondary_dsm,
+                                                      const Matcher& matcher,
+                                                      const RoughCoregistrationOptions& options = {});
+
+/// Rough co-registration of two DSMs (paper 3.2.1): the DSM images are made with
+/// make_dsm_image(), then rough_coregistration_images() runs on them.
+template <class Matcher>
+RoughCoregistrationReport rough_coregistration(const Dsm& master, const Dsm& secondary, const Matcher& matcher,
+                                               const RoughCoregistrationOptions& options = {});
+
+// Implementation --------------------------------------------------------------------------------
+
+namespace detail {
+
+inline double seconds_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+/// The 3D point of image pixel `px`: its ground X/Y through the image's geotransform and the DSM
+/// height there; NaN height when the DSM has none.
+inline Eigen::Vector3d lift_pixel(const GeoImage& image, const Dsm& dsm, const Eigen::Vector2d& px) {
+  const Eigen::Vector2d xy = image.transform.pixel_to_world(px);
+  return {xy.x(), xy.y(), dsm.height_at(xy)};
+}
+
+/// Distance in pixels from each DSM pixel to the nearest hole (chamfer 3-4 approximation of the
+/// Euclidean distance, two passes); +inf everywhere when the DSM has no hole. Borders are not holes.
+inline Raster<float> distance_to_holes(const Dsm& dsm) {
+  const int w = dsm.width(), h = dsm.height();
+  const float inf = std::numeric_limits<float>::infinity();
+  Raster<float> d(w, h, inf);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      if (!dsm.valid(x, y)) d(x, y) = 0.0f;
+  auto relax = [&](int x, int y, int dx, int dy, float cost) {
+    const int u = x + dx, v = y + dy;
+    if (u >= 0 && v >= 0 && u < w && v < h) d(x, y) = std::min(d(x, y), d(u, v) + cost);
+  };
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      relax(x, y, -1, 0, 1.0f);
+      relax(x, y, 0, -1, 1.0f);
+      relax(x, y, -1, -1, 4.0f / 3.0f);
+      relax(x, y, 1, -1, 4.0f / 3.0f);
+    }
+  for (int y = h - 1; y >= 0; --y)
+    for (int x = w - 1; x >= 0; --x) {
+      relax(x, y, 1, 0, 1.0f);
+      relax(x, y, 0, 1, 1.0f);
+      relax(x, y, 1, 1, 4.0f / 3.0f);
+      relax(x, y, -1, 1, 4.0f / 3.0f);
+    }
+  return d;
+}
+
+/// True when image pixel `px` lies at least `min_distance` DSM pixels away from any hole of `dsm`.
+inline bool away_from_holes(const GeoImage& image, const Dsm& dsm, const Raster<float>& distance,
+                            const Eigen::Vector2d& px, double min_distance) {
+  const Eigen::Vector2d p = dsm.world_to_pixel(image.transform.pixel_to_world(px));
+  const int x = static_cast<int>(std::lround(p.x())), y = static_cast<int>(std::lround(p.y()));
+  if (!distance.contains(x, y)) return false;
+  return distance(x, y) >= min_distance;
+}
+
+}  // namespace detail
+
+template <class Matcher>
+RoughCoregistrationReport rough_coregistration_images(const GeoImage& master, const Dsm& master_dsm,
+                                                      const GeoImage& secondary, const Dsm& secondary_dsm,
+                                                      const Matcher& matcher,
+                                                      const RoughCoregistrationOptions& options) {
+  static_assert(check_pair_matcher<Matcher>());
+  options.check();
+  DIACHRON_CHECK(!master.image.empty() && !secondary.image.empty(), "rough co-registration needs two non-empty images");
+  DIACHRON_CHECK(!master_dsm.empty() && !secondary_dsm.empty(), "rough co-registration needs two non-empty DSMs");
+  const auto start = std::chrono::steady_clock::now();
+  RoughCoregistrationReport report;
+
+  // Stage 1: tentative matches under each rotation hypothesis, and a 2D similarity RANSAC on each.
+  auto t0 = std::chrono::steady_clock::now();
+  const GridTilerOptions whole_m{master.image.width(), master.image.height(), 0, 0};
+  const GridTilerOptions whole_s{std::max(secondary.image.width(), secondary.image.height()),
+                                 std::max(secondary.image.width(), secondary.image.height()), 0, 0};
+  const GridTiler master_tiler(options.use_tiling ? options.master_tiles : whole_m);
+  const GridTiler secondary_tiler(options.use_tiling ? options.secondary_tiles : whole_s);
+  // One extraction per distinct tile instead of one per tile pair (M + N instead of 2 M N), and the
+  // master's tiles, which no hypothesis rotates, only once for all hypotheses.
+  [[maybe_unused]] const auto cached_matcher = [&] {
+    if constexpr (is_feature_pair_matcher_v<Matcher>)
+      return FeatureCacheMatcher<Matcher>(matcher);
+    else
+      return 0;
+  }();
+  const Raster<float> master_holes = detail::distance_to_holes(master_dsm);
+  const Raster<float> secondary_holes = detail::distance_to_holes(secondary_dsm);
+  auto match_fn = [&](const Raster<std::uint8_t>& m, const Raster<std::uint8_t>& s, int rotation_deg) {
+    OneToManyOptions one_to_many;
+    one_to_many.threads = options.threads;
+    one_to_many.progress = options.progress;
+    one_to_many.progress_stage = "tile pairs (rotation " + std::to_string(rotation_deg) + ")";
+    OneToManyResult r;
+    if constexpr (is_feature_pair_matcher_v<Matcher>) {
+      r = match_one_to_many(m, s, master_tiler, secondary_tiler, cached_matcher, one_to_many);
+    } else {
+      r = match_one_to_many(m, s, master_tiler, secondary_tiler, matcher, one_to_many);
+    }
+    report.tile_pairs = r.pair_count;
+    if (options.min_hole_distance_px <= 0.0) return std::move(r.matches);
+    // Points are checked in the unrotated secondary: undo this hypothesis' quarter-turn first.
+    const int quarter_turns = rotation_deg / 90;
+    PointMatches kept;
+    kept.reserve(r.matches.size());
+    for (const PointMatch& match : r.matches) {
+      const Eigen::Vector2d b = unrotate_point_quarter_turns(match.b, quarter_turns, secondary.image.width(),
+                                                             secondary.image.height());
+      if (detail::away_from_holes(master, master_dsm, master_holes, match.a, options.min_hole_distance_px) &&
+          detail::away_from_holes(secondary, secondary_dsm, secondary_holes, b, options.min_hole_distance_px))
+        kept.push_back(match);
+    }
+    return kept;
+  };
+  RotationHypothesesOptions hypotheses_options;
+  hypotheses_options.ransac = options.ransac_2d;
+  if (!options.rotation_hypotheses) hypotheses_options.rotations_deg = {0};
+  RotationHypothesesReport hyp =
+      match_with_rotation_hypotheses(master.image, secondary.image, match_fn, hypotheses_options);
+  report.seconds.matching = hyp.seconds_matching;
+  report.seconds.ransac_2d = hyp.seconds_ransac;
+  report.hypotheses = hyp.hypotheses;
+  (void)t0;
+
+  if (!hyp.success) {
+    report.message = "no 2D similarity found between the DSM images (the DSMs probably do not overlap, or "
+                     "the matcher found too little): " + hyp.message;
+    report.seconds.total = detail::seconds_since(start);
+    return report;
+  }
+  report.best_rotation_deg = hyp.best_rotation_deg;
+  report.image_similarity = hyp.similarity;
+  report.matches_2d = hyp.best_matches;
+
+  // Stage 2: is the winner more than what random matches reach? Each random match lands within
+  // the threshold of a wrong prediction with probability pi t^2 / (secondary area).
+  const double t = options.ransac_2d.threshold;
+  const double area = static_cast<double>(secondary.image.width()) * secondary.image.height();
+  const double p_chance = std::min(1.0, kPi * t * t / std::max(area, 1.0));
+  std::size_t scored = 0;
+  for (const auto& h : report.hypotheses) scored += std::max<std::size_t>(h.iterations, 1);
+  report.required_inliers_2d =
+      std::max(options.min_inliers_2d,
+               min_significant_inliers(report.matches_2d, p_chance, static_cast<double>(std::max<std::size_t>(scored, 1)),
+                                       options.alpha, 2));
+  report.inliers_2d = hyp.inlier_matches;
+  if (report.inliers_2d.size() < report.required_inliers_2d) {
+    report.message = "the best rotation hypothesis has " + std::to_string(report.inliers_2d.size()) +
+                     " inliers among " + std::to_string(report.matches_2d) + " matches, fewer than the " +
+                     std::to_string(report.required_inliers_2d) +
+                     " random matches would give (the DSMs probably do not overlap)";
+    report.seconds.total = detail::seconds_since(start);
+    return report;
+  }
+
+  // Stage 3: lift the 2D inliers to 3D through both DSMs.
+  t0 = std::chrono::steady_clock::now();
+  for (const PointMatch& m : report.inliers_2d) {
+    const Eigen::Vector3d x1 = detail::lift_pixel(master, master_dsm, m.a);
+    const Eigen::Vector3d x2 = detail::lift_pixel(secondary, secondary_dsm, m.b);
+    if (std::isfinite(x1.z()) && std::isfinite(x2.z())) report.lifted.push_back(PointPair3{x1, x2});
+  }
+  report.seconds.lift = detail::seconds_since(t0);
+  if (report.lifted.size() < options.min_inliers_3d) {
+    report.message = "only " + std::to_string(report.lifted.size()) + " of " +
+                     std::to_string(report.inliers_2d.size()) + " 2D inliers have heights in both DSMs";
+    report.seconds.total = detail::seconds_since(start);
+    return report;
+  }
+
+  // Stage 4: the Helmert. Least squares on every lifted inlier first (what GCPBascule does), then a
+  // 3D RANSAC guard against points whose heights disagree (real change, DSM blunders), and a final
+  // least-squares fit on the guard's inliers.
+  t0 = std::chrono::steady_clock::now();
+  const Helmert3Estimator estimator;
+  const std::optional<Helmert3> all_fit =
+      estimator.refine(Helmert3::identity(), Subset<PointPair3>(report.lifted.data(), report.lifted.size()), nullptr);
+  RansacOptions ransac_3d = options.ransac_2d;
+  ransac_3d.threshold = options.ransac_3d_threshold_cells * secondary_dsm.min_cell_size();
+  ransac_3d.min_inliers = options.min_inliers_3d;
+  const RansacReport<Helmert3> guard = ransac_helmert3(report.lifted, ransac_3d);
+  report.seconds.helmert = detail::seconds_since(t0);
+  if (!guard.success) {
+    report.message = "the lifted 2D inliers do not agree on a 3D Helmert: " + guard.message;
+    report.seconds.total = detail::seconds_since(start);
+    return report;
+  }
+  // Keep the all-point fit when it explains at least as many points: then the guard found nothing.
+  Helmert3 best = guard.model;
+  std::vector<std::size_t> inliers = guard.inliers;
+  if (all_fit) {
+    std::vector<std::size_t> all_inliers;
+    for (std::size_t i = 0; i < report.lifted.size(); ++i)
+      if (estimator.residual(*all_fit, report.lifted[i]) <= ransac_3d.threshold) all_inliers.push_back(i);
+    if (all_inliers.size() > inliers.size()) {
+      best = *all_fit;
+      inliers = std::move(all_inliers);
+    }
+  }
+  double sum2 = 0.0;
+  for (std::size_t i : inliers) {
+    const double r = estimator.residual(best, report.lifted[i]);
+    sum2 += r * r;
+  }
+  report.epoch2_from_epoch1 = best;
+  report.inliers_3d = std::move(inliers);
+  report.rms_3d = std::sqrt(sum2 / static_cast<double>(report.inliers_3d.size()));
+  report.success = true;
+  report.message = "rotation " + std::to_string(report.best_rotation_deg) + " deg: " +
+                   std::to_string(report.inliers_2d.size()) + " of " + std::to_string(report.matches_2d) +
+                   " matches are 2D inliers, " + std::to_string(report.inliers_3d.size()) + " of " +
+                   std::to_string(report.lifted.size()) + " agree in 3D";
+  report.seconds.total = detail::seconds_since(start);
+  return report;
+}
+
+template <class Matcher>
+RoughCoregistrationReport rough_coregistration(const Dsm& master, const Dsm& secondary, const Matcher& matcher,
+                                               const RoughCoregistrationOptions& options) {
+  options.check();
+  DIACHRON_CHECK(!master.empty() && !secondary.empty(), "rough co-registration needs two non-empty DSMs");
+  const auto start = std::chrono::steady_clock::now();
+  if (master.statistics().count == 0 || secondary.statistics().count == 0) {
+    RoughCoregistrationReport report;
+    report.message = std::string(master.statistics().count == 0 ? "the master" : "the secondary") +
+                     " DSM has no valid height";
+    return report;
+  }
+  const GeoImage master_image{make_dsm_image(master, options), master.transform()};
+  const GeoImage secondary_image{make_dsm_image(secondary, options), secondary.transform()};
+  const double image_seconds = detail::seconds_since(start);
+  RoughCoregistrationReport report =
+      rough_coregistration_images(master_image, master, secondary_image, secondary, matcher, options);
+  report.seconds.images = image_seconds;
+  report.seconds.total += image_seconds;
+  return report;
+}
+
+}  // namespace diachron
