@@ -5,7 +5,8 @@
 // the truth. Success: RMS Helmert error below 2 secondary DSM cells over the overlap.
 //
 //   rough_coregistration_eval [--data DIR] [--models DIR] [--cases N] [--overlap MIN MAX]
-//                             [--configs C1,C2,...] [--threads N] [--seed S] [--verbose]
+//                             [--configs C1,C2,...] [--threads N] [--seed S] [--max-features N]
+//                             [--verbose]
 //
 // A configuration is IMAGE/MATCHER/TILING/ROTATIONS, e.g. relief/sift/tiles/rot:
 //   IMAGE     stretch2 stretch5 wallis2 wallis5 hillshade multihillshade slope relief
@@ -126,6 +127,7 @@ double median(std::vector<double> v) {
 int main(int argc, char** argv) {
   std::string data = "../shared/data", models = "../shared/models";
   std::size_t cases = 20, threads = 0;
+  int max_features = 2000;
   double overlap_min = 0.3, overlap_max = 1.0;
   std::uint64_t seed = 1;
   bool verbose = false;
@@ -146,6 +148,7 @@ int main(int argc, char** argv) {
     else if (a == "--configs") configs_text = next();
     else if (a == "--threads") threads = std::stoul(next());
     else if (a == "--seed") seed = std::stoull(next());
+    else if (a == "--max-features") max_features = std::stoi(next());
     else if (a == "--verbose") verbose = true;
     else {
       std::cerr << "usage: rough_coregistration_eval [--data DIR] [--models DIR] [--cases N] [--overlap MIN MAX]\n"
@@ -159,14 +162,23 @@ int main(int argc, char** argv) {
     std::stringstream ss(configs_text);
     for (std::string c; std::getline(ss, c, ',');) configs.push_back(parse_config(c));
 
-    const ExtractorPairMatcher<SiftExtractor> sift{SiftExtractor{}};
-    SiftOptions root;
-    root.root_sift = true;
-    const ExtractorPairMatcher<SiftExtractor> rootsift{SiftExtractor{root}};
-    const ExtractorPairMatcher<AkazeExtractor> akaze{AkazeExtractor{}};
+    // Features per tile are capped (strongest first): brute-force matching of every master tile with
+    // every secondary tile is quadratic in them.
+    SiftOptions so;
+    so.max_features = max_features;
+    const ExtractorPairMatcher<SiftExtractor> sift{SiftExtractor{so}};
+    so.root_sift = true;
+    const ExtractorPairMatcher<SiftExtractor> rootsift{SiftExtractor{so}};
+    AkazeOptions ao;
+    ao.max_features = max_features;
+    const ExtractorPairMatcher<AkazeExtractor> akaze{AkazeExtractor{ao}};
     std::unique_ptr<XFeatPairMatcher> xfeat;
     for (const auto& c : configs)
-      if (c.matcher == "xfeat" && !xfeat) xfeat = std::make_unique<XFeatPairMatcher>(models + "/xfeat/xfeat.onnx");
+      if (c.matcher == "xfeat" && !xfeat) {
+        XFeatOptions xo;
+        xo.top_k = max_features;
+        xfeat = std::make_unique<XFeatPairMatcher>(models + "/xfeat/xfeat.onnx", xo);
+      }
 
     CoregistrationCaseOptions case_options;
     case_options.overlap_min = overlap_min;

@@ -160,6 +160,8 @@ struct RoughCoregistrationReport {
   std::size_t tile_pairs = 0;          ///< tile pairs matched per hypothesis
   std::size_t matches_2d = 0;          ///< tentative matches of the winner
   std::size_t required_inliers_2d = 0; ///< significance bound the winner had to reach
+  PointMatches tentative_2d;           ///< the winner's tentative matches (master px, unrotated secondary px)
+  std::vector<std::size_t> inlier_indices_2d;  ///< indices into `tentative_2d` of the 2D inliers
   PointMatches inliers_2d;             ///< the winner's 2D inliers (master image px, secondary image px)
   std::vector<PointPair3> lifted;      ///< inliers lifted to 3D (both DSM heights valid)
   std::vector<std::size_t> inliers_3d; ///< indices into `lifted` that agree with the Helmert
@@ -328,6 +330,8 @@ RoughCoregistrationReport rough_coregistration_images(const GeoImage& master, co
   report.best_rotation_deg = hyp.best_rotation_deg;
   report.image_similarity = hyp.similarity;
   report.matches_2d = hyp.best_matches;
+  report.tentative_2d = hyp.matches;
+  report.inlier_indices_2d = hyp.inliers;
 
   // Stage 2: is the winner more than what random matches reach? Each random match lands within
   // the threshold of a wrong prediction with probability pi t^2 / (secondary area).

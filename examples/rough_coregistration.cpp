@@ -1,0 +1,174 @@
+// rough_coregistration: co-registers two epochs from their DSMs (paper section 3.2.1) and writes the
+// 3D Helmert that moves the first DSM's frame into the second's.
+//
+//   rough_coregistration MASTER_DSM.tif SECONDARY_DSM.tif --out DIR [options]
+//
+// MASTER is epoch 1 (the one moved), SECONDARY epoch 2 (the reference). Writes
+//   DIR/helmert.json  {"scale", "rotation" (3x3 row-major), "translation"}: X2 = scale R X1 + translation
+//   DIR/report.json   counts per rotation hypothesis and stage, timings
+//   DIR/matches.png   the DSM images side by side, 2D inliers green, other tentative matches red
+// Exit status: 0 success, 2 no co-registration found (reason printed), 1 bad input.
+// The composition it runs is pipeline/rough_coregistration.hpp; docs/rough-coregistration.md says
+// how its defaults were chosen.
+
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <memory>
+#include <string>
+#include <sys/stat.h>
+
+#include <diachron/io/geotiff.hpp>
+#include <diachron/pipeline/rough_coregistration.hpp>
+#include <diachron/vision/akaze.hpp>
+#include <diachron/vision/draw_matches.hpp>
+#include <diachron/vision/extractor_pair_matcher.hpp>
+#include <diachron/vision/sift.hpp>
+#include <diachron/vision/xfeat.hpp>
+
+namespace {
+
+using namespace diachron;
+
+const char* kUsage =
+    "usage: rough_coregistration MASTER_DSM.tif SECONDARY_DSM.tif --out DIR [options]\n"
+    "  --matcher sift|rootsift|akaze|xfeat   pair matcher (default sift)\n"
+    "  --model PATH                          XFeat ONNX file (with --matcher xfeat)\n"
+    "  --image relief|slope|stretch|wallis|hillshade|multihillshade   DSM image (default relief)\n"
+    "  --k-sigma K                           stretch range for stretch/wallis (default 2, the paper)\n"
+    "  --tile WxH                            tile size in DSM pixels (default 640x480)\n"
+    "  --no-tiling                           match the whole DSM images\n"
+    "  --no-rotations                        try 0 degrees only\n"
+    "  --threshold PX                        2D RANSAC threshold, DSM pixels (default 10)\n"
+    "  --threads N                           worker threads, 0 = all cores (default 0)\n"
+    "  --seed S                              random seed (default 0)\n"
+    "  --quiet                               no progress on stderr\n";
+
+void write_helmert(const std::string& path, const Helmert3& h) {
+  std::ofstream out(path);
+  DIACHRON_CHECK(out, "cannot write " << path);
+  out.precision(17);
+  out << "{\n  \"scale\": " << h.scale << ",\n  \"rotation\": [";
+  for (int r = 0; r < 3; ++r)
+    out << (r ? ", " : "") << "[" << h.rotation(r, 0) << ", " << h.rotation(r, 1) << ", " << h.rotation(r, 2) << "]";
+  out << "],\n  \"translation\": [" << h.translation.x() << ", " << h.translation.y() << ", " << h.translation.z()
+      << "]\n}\n";
+}
+
+void write_report(const std::string& path, const RoughCoregistrationReport& r, const std::string& matcher) {
+  std::ofstream out(path);
+  DIACHRON_CHECK(out, "cannot write " << path);
+  auto quoted = [](const std::string& s) {
+    std::string q = "\"";
+    for (char c : s) q += (c == '"' || c == '\\') ? std::string("\\") + c : std::string(1, c);
+    return q + "\"";
+  };
+  out << "{\n  \"success\": " << (r.success ? "true" : "false") << ",\n  \"message\": " << quoted(r.message)
+      << ",\n  \"matcher\": " << quoted(matcher) << ",\n  \"best_rotation_deg\": " << r.best_rotation_deg
+      << ",\n  \"tile_pairs_per_hypothesis\": " << r.tile_pairs << ",\n  \"hypotheses\": [";
+  for (std::size_t i = 0; i < r.hypotheses.size(); ++i) {
+    const auto& h = r.hypotheses[i];
+    out << (i ? ", " : "") << "{\"rotation_deg\": " << h.rotation_deg << ", \"matches\": " << h.matches
+        << ", \"inliers\": " << h.inliers << ", \"iterations\": " << h.iterations << "}";
+  }
+  out << "],\n  \"stages\": {\"tentative_2d\": " << r.matches_2d << ", \"required_inliers_2d\": " << r.required_inliers_2d
+      << ", \"inliers_2d\": " << r.inliers_2d.size() << ", \"lifted_3d\": " << r.lifted.size()
+      << ", \"inliers_3d\": " << r.inliers_3d.size() << ", \"rms_3d\": " << r.rms_3d << "},\n  \"seconds\": {\"images\": "
+      << r.seconds.images << ", \"matching\": " << r.seconds.matching << ", \"ransac_2d\": " << r.seconds.ransac_2d
+      << ", \"lift\": " << r.seconds.lift << ", \"helmert\": " << r.seconds.helmert << ", \"total\": " << r.seconds.total
+      << "}\n}\n";
+}
+
+DsmImageKind parse_image(const std::string& s) {
+  for (DsmImageKind k : {DsmImageKind::kStretch, DsmImageKind::kStretchWallis, DsmImageKind::kHillshade,
+                         DsmImageKind::kMultiHillshade, DsmImageKind::kSlope, DsmImageKind::kLocalRelief})
+    if (s == to_string(k)) return k;
+  DIACHRON_CHECK(false, "unknown --image '" << s << "'");
+  return DsmImageKind::kLocalRelief;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string master_path, secondary_path, out_dir, matcher_name = "sift", model_path;
+  RoughCoregistrationOptions options;
+  bool quiet = false;
+  try {
+    for (int i = 1; i < argc; ++i) {
+      const std::string a = argv[i];
+      auto value = [&]() -> std::string {
+        DIACHRON_CHECK(i + 1 < argc, "missing value after " << a);
+        return argv[++i];
+      };
+      if (a == "--out") out_dir = value();
+      else if (a == "--matcher") matcher_name = value();
+      else if (a == "--model") model_path = value();
+      else if (a == "--image") options.image_kind = parse_image(value());
+      else if (a == "--k-sigma") options.dsm_image.k_sigma = std::stod(value());
+      else if (a == "--tile") {
+        const std::string t = value();
+        const auto x = t.find('x');
+        DIACHRON_CHECK(x != std::string::npos, "--tile wants WxH, got '" << t << "'");
+        options.master_tiles.tile_width = options.secondary_tiles.tile_width = std::stoi(t.substr(0, x));
+        options.master_tiles.tile_height = options.secondary_tiles.tile_height = std::stoi(t.substr(x + 1));
+      } else if (a == "--no-tiling") options.use_tiling = false;
+      else if (a == "--no-rotations") options.rotation_hypotheses = false;
+      else if (a == "--threshold") options.ransac_2d.threshold = std::stod(value());
+      else if (a == "--threads") options.threads = std::stoul(value());
+      else if (a == "--seed") options.ransac_2d.seed = std::stoull(value());
+      else if (a == "--quiet") quiet = true;
+      else if (a == "--help" || a == "-h") {
+        std::cout << kUsage;
+        return 0;
+      } else if (!a.empty() && a[0] == '-') DIACHRON_CHECK(false, "unknown option " << a);
+      else if (master_path.empty()) master_path = a;
+      else if (secondary_path.empty()) secondary_path = a;
+      else DIACHRON_CHECK(false, "unexpected argument " << a);
+    }
+    DIACHRON_CHECK(!master_path.empty() && !secondary_path.empty() && !out_dir.empty(),
+                   "two DSM files and --out DIR are required");
+    options.check();
+    if (!quiet)
+      options.progress = [](const ProgressEvent& e) {
+        std::fprintf(stderr, "\r%s: %zu/%zu ", e.stage.c_str(), e.done, e.total);
+        if (e.done == e.total) std::fprintf(stderr, "\n");
+      };
+    const Dsm master = read_geotiff_dsm(master_path);
+    const Dsm secondary = read_geotiff_dsm(secondary_path);
+    ::mkdir(out_dir.c_str(), 0755);
+    struct stat info {};
+    DIACHRON_CHECK(::stat(out_dir.c_str(), &info) == 0 && S_ISDIR(info.st_mode), "cannot create " << out_dir);
+
+    RoughCoregistrationReport report;
+    if (matcher_name == "sift" || matcher_name == "rootsift") {
+      SiftOptions so;
+      so.root_sift = matcher_name == "rootsift";
+      report = rough_coregistration(master, secondary, ExtractorPairMatcher<SiftExtractor>(SiftExtractor(so)), options);
+    } else if (matcher_name == "akaze") {
+      report = rough_coregistration(master, secondary, ExtractorPairMatcher<AkazeExtractor>(AkazeExtractor{}), options);
+    } else if (matcher_name == "xfeat") {
+      DIACHRON_CHECK(!model_path.empty(), "--matcher xfeat needs --model PATH (the XFeat ONNX file)");
+      report = rough_coregistration(master, secondary, XFeatPairMatcher(model_path), options);
+    } else {
+      DIACHRON_CHECK(false, "unknown --matcher '" << matcher_name << "'");
+    }
+
+    write_report(out_dir + "/report.json", report, matcher_name);
+    std::vector<bool> mask(report.tentative_2d.size(), false);
+    for (std::size_t i : report.inlier_indices_2d) mask[i] = true;
+    write_matches_png(out_dir + "/matches.png", make_dsm_image(master, options), make_dsm_image(secondary, options),
+                      report.tentative_2d, mask);
+    for (const auto& h : report.hypotheses)
+      std::printf("rotation %3d deg: %5zu matches, %5zu inliers\n", h.rotation_deg, h.matches, h.inliers);
+    std::printf("%s\n", report.message.c_str());
+    if (!report.success) return 2;
+    write_helmert(out_dir + "/helmert.json", report.epoch2_from_epoch1);
+    const Helmert3& h = report.epoch2_from_epoch1;
+    std::printf("scale %.6f, rotation about Z %.3f deg, 3D RMS %.3f (secondary units), %.2f s\n", h.scale,
+                rad_to_deg(std::atan2(h.rotation(1, 0), h.rotation(0, 0))), report.rms_3d, report.seconds.total);
+    return 0;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "rough_coregistration: %s\n%s", e.what(), kUsage);
+    return 1;
+  }
+}
