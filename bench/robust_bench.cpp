@@ -62,7 +62,8 @@ constexpr double kSuccessSigmas = 2.0;
 // --- one run of one method -----------------------------------------------------------------------
 
 struct Run {
-  double ms = kNaN;
+  double ms = kNaN;      // wall
+  double cpu_ms = kNaN;  // thread CPU
   double error = kInf;
   // Counters, only for ours (NaN for peers).
   double iterations = kNaN;
@@ -73,11 +74,12 @@ struct Run {
 };
 
 struct Stats {
-  std::vector<double> ms, errors, iterations, hypotheses, stopped_early, local_optimizations, passes;
+  std::vector<double> ms, cpu_ms, errors, iterations, hypotheses, stopped_early, local_optimizations, passes;
   std::size_t successes = 0;
 
   void add(const Run& run, double tolerance) {
     ms.push_back(run.ms);
+    cpu_ms.push_back(run.cpu_ms);
     errors.push_back(run.error);
     if (run.error < tolerance) ++successes;
     if (!std::isnan(run.iterations)) {
@@ -120,6 +122,7 @@ Run run_ours2(const Problem2& p, std::uint64_t seed, bool paper_fixed) {
   const Stopwatch watch;
   const RansacReport<Similarity2> report = ransac_similarity2(p.pairs, options);
   run.ms = watch.elapsed_ms();
+  run.cpu_ms = watch.elapsed_cpu_ms();
   if (report.success) run.error = model_error(p, [&](const Vec2& x) { return report.model(x); });
   copy_counters(report, run);
   return run;
@@ -131,6 +134,7 @@ Run run_ours3(const Problem3& p, std::uint64_t seed, bool paper_fixed) {
   const Stopwatch watch;
   const RansacReport<Helmert3> report = ransac_helmert3(p.pairs, options);
   run.ms = watch.elapsed_ms();
+  run.cpu_ms = watch.elapsed_cpu_ms();
   if (report.success) run.error = model_error(p, [&](const Vec3& x) { return report.model(x); });
   copy_counters(report, run);
   return run;
@@ -159,6 +163,7 @@ Run run_opencv_partial2d(const Problem2& p, const CvPoints2& points) {
   const cv::Mat m = cv::estimateAffinePartial2D(points.source, points.target, inlier_mask, cv::RANSAC,
                                                 p.threshold, kOpenCvMaxIters, kConfidence);
   run.ms = watch.elapsed_ms();
+  run.cpu_ms = watch.elapsed_cpu_ms();
   if (!m.empty()) {
     Eigen::Matrix<double, 2, 3> a;
     for (int r = 0; r < 2; ++r)
@@ -184,6 +189,7 @@ Run run_opencv_ls3_on_inliers(const Problem3& p) {
   const Stopwatch watch;
   const cv::Mat m = cv::estimateAffine3D(source, target, &scale, true);
   run.ms = watch.elapsed_ms();
+  run.cpu_ms = watch.elapsed_cpu_ms();
   if (!m.empty()) {
     // OpenCV returns [R | t] with the scale apart: est(x) = scale * R * x + t.
     Eigen::Matrix<double, 3, 4> a;
@@ -252,6 +258,7 @@ Run run_umeyama_loop(const Problem3& p, std::uint64_t seed, std::size_t iteratio
     ok = best.allFinite();
   }
   run.ms = watch.elapsed_ms();
+  run.cpu_ms = watch.elapsed_cpu_ms();
   if (ok) {
     const Eigen::Matrix3d a = best.topLeftCorner<3, 3>();
     const Eigen::Vector3d b = best.topRightCorner<3, 1>();
@@ -265,20 +272,27 @@ Run run_umeyama_loop(const Problem3& p, std::uint64_t seed, std::size_t iteratio
 /// Keeps a result alive so the timed loop is not optimised away.
 volatile std::size_t g_sink = 0;
 
-/// Median time of `reps` runs of `pass`.
-double time_pass(const std::function<std::size_t()>& pass, int reps) {
-  std::vector<double> ms;
+/// Median wall and thread-CPU times of one pass, ms.
+struct PassTime {
+  double ms = kNaN;
+  double cpu_ms = kNaN;
+};
+
+/// Median times of `reps` runs of `pass`.
+PassTime time_pass(const std::function<std::size_t()>& pass, int reps) {
+  std::vector<double> ms, cpu_ms;
   for (int r = 0; r < reps; ++r) {
     const Stopwatch watch;
     g_sink = g_sink + pass();
     ms.push_back(watch.elapsed_ms());
+    cpu_ms.push_back(watch.elapsed_cpu_ms());
   }
-  return median(ms);
+  return {median(ms), median(cpu_ms)};
 }
 
 struct PassTimes {
-  double bare_ms = kNaN;       // hand-written loop, squared distance, matrix precomputed
-  double estimator_ms = kNaN;  // the estimator's residual(), what our RANSAC calls per datum
+  PassTime bare;       // hand-written loop, squared distance, matrix precomputed
+  PassTime estimator;  // the estimator's residual(), what our RANSAC calls per datum
 };
 
 PassTimes time_passes2(const Problem2& p, int reps) {
@@ -287,7 +301,7 @@ PassTimes time_passes2(const Problem2& p, int reps) {
   const double tx = m.translation.x(), ty = m.translation.y();
   const double threshold2 = p.threshold * p.threshold;
   PassTimes times;
-  times.bare_ms = time_pass(
+  times.bare = time_pass(
       [&] {
         std::size_t count = 0;
         for (const PointPair2& d : p.pairs) {
@@ -299,7 +313,7 @@ PassTimes time_passes2(const Problem2& p, int reps) {
       },
       reps);
   const Similarity2Estimator estimator;
-  times.estimator_ms = time_pass(
+  times.estimator = time_pass(
       [&] {
         std::size_t count = 0;
         for (const PointPair2& d : p.pairs) count += estimator.residual(m, d) <= p.threshold ? 1 : 0;
@@ -314,9 +328,9 @@ PassTimes time_passes3(const Problem3& p, int reps) {
   const Eigen::Vector3d t = p.truth.translation;
   const double threshold2 = p.threshold * p.threshold;
   PassTimes times;
-  times.bare_ms = time_pass([&] { return count_inliers(p.pairs, a, t, threshold2); }, reps);
+  times.bare = time_pass([&] { return count_inliers(p.pairs, a, t, threshold2); }, reps);
   const Helmert3Estimator estimator;
-  times.estimator_ms = time_pass(
+  times.estimator = time_pass(
       [&] {
         std::size_t count = 0;
         for (const PointPair3& d : p.pairs) count += estimator.residual(p.truth, d) <= p.threshold ? 1 : 0;
@@ -442,8 +456,8 @@ void warm_up() {
 std::string percent(double ratio) { return format_number(ratio * 100.0, 2) + " %"; }
 
 void print_results(const std::vector<ScenarioResult>& results, const std::string& model) {
-  Table table({"N", "outliers", "method", "seeds", "time (ms, median)", "success", "model error (median)",
-               "model error (max)", "iterations (median)"});
+  Table table({"N", "outliers", "method", "seeds", "CPU ms (median)", "wall ms (median)", "success",
+               "model error (median)", "model error (max)", "iterations (median)"});
   for (const ScenarioResult& r : results) {
     if (r.model != model) continue;
     for (std::size_t m = 0; m < r.methods.size(); ++m) {
@@ -452,27 +466,29 @@ void print_results(const std::vector<ScenarioResult>& results, const std::string
                                       ? "(ref.)"
                                       : std::to_string(s.successes) + "/" + std::to_string(s.runs());
       table.add({format_count(r.n), percent(r.outliers), r.methods[m].name, std::to_string(s.runs()),
-                 format_number(median(s.ms)), success, format_number(median(s.errors)),
-                 format_number(max_of(s.errors)),
-                 s.iterations.empty() ? (r.methods[m].fixed_1000 ? "1000" : "-") : format_number(median(s.iterations))});
+                 format_number(median(s.cpu_ms)), format_number(median(s.ms)), success,
+                 format_number(median(s.errors)), format_number(max_of(s.errors)),
+                 s.iterations.empty() ? (r.methods[m].fixed_1000 ? "1000" : "-")
+                                      : format_number(median(s.iterations))});
     }
   }
   std::cout << "\n### " << model << "\n\n";
   table.print(std::cout);
 }
 
-/// Time of every robust peer divided by ours (defaults): "x times faster" when above 1.
+/// Time of every robust peer divided by ours: "x times faster" when above 1. CPU time is the figure
+/// to trust on a shared machine; wall time is given as well.
 void print_ratios(const std::vector<ScenarioResult>& results) {
-  Table table({"model", "N", "outliers", "peer", "peer time / ours (defaults)", "peer time / ours (1000 it.)",
-               "success ours / peer"});
+  Table table({"model", "N", "outliers", "peer", "peer / ours (defaults), CPU", "same, wall",
+               "peer / ours (1000 it.), CPU", "success ours (defaults) vs peer"});
   for (const ScenarioResult& r : results) {
-    const double ours = median(r.stats[0].ms);
-    const double ours_fixed = median(r.stats[1].ms);
     for (std::size_t m = 2; m < r.methods.size(); ++m) {
       if (r.methods[m].reference) continue;
       const Stats& s = r.stats[m];
       table.add({r.model, format_count(r.n), percent(r.outliers), r.methods[m].name,
-                 format_number(median(s.ms) / ours), format_number(median(s.ms) / ours_fixed),
+                 format_number(median(s.cpu_ms) / median(r.stats[0].cpu_ms)),
+                 format_number(median(s.ms) / median(r.stats[0].ms)),
+                 format_number(median(s.cpu_ms) / median(r.stats[1].cpu_ms)),
                  std::to_string(r.stats[0].successes) + "/" + std::to_string(r.stats[0].runs()) + " vs " +
                      std::to_string(s.successes) + "/" + std::to_string(s.runs())});
     }
@@ -481,19 +497,19 @@ void print_ratios(const std::vector<ScenarioResult>& results) {
   table.print(std::cout);
 }
 
-/// Ours' cost in passes: by time and by the report's residual-evaluation counter.
+/// Ours' cost in passes: by CPU time and by the report's residual-evaluation counter.
 void print_passes(const std::vector<ScenarioResult>& results) {
-  Table table({"model", "N", "outliers", "pass, bare (ms)", "pass, Estimator::residual (ms)", "ours (ms)",
-               "ours / bare pass", "ours / residual pass", "residual evals / N", "hypotheses scored",
+  Table table({"model", "N", "outliers", "bare pass, CPU ms", "residual() pass, CPU ms", "ours, CPU ms",
+               "ours / bare pass", "ours / residual() pass", "residual evals / N", "hypotheses scored",
                "stopped early", "local opt."});
   for (const ScenarioResult& r : results) {
     const Stats& s = r.stats[0];
-    const double ours = median(s.ms);
-    table.add({r.model, format_count(r.n), percent(r.outliers), format_number(r.pass.bare_ms),
-               format_number(r.pass.estimator_ms), format_number(ours), format_number(ours / r.pass.bare_ms),
-               format_number(ours / r.pass.estimator_ms), format_number(median(s.passes)),
-               format_number(median(s.hypotheses)), format_number(median(s.stopped_early)),
-               format_number(median(s.local_optimizations))});
+    const double ours = median(s.cpu_ms);
+    table.add({r.model, format_count(r.n), percent(r.outliers), format_number(r.pass.bare.cpu_ms),
+               format_number(r.pass.estimator.cpu_ms), format_number(ours),
+               format_number(ours / r.pass.bare.cpu_ms), format_number(ours / r.pass.estimator.cpu_ms),
+               format_number(median(s.passes)), format_number(median(s.hypotheses)),
+               format_number(median(s.stopped_early)), format_number(median(s.local_optimizations))});
   }
   std::cout << "\n### Ours (defaults) in passes over the data\n\n";
   table.print(std::cout);
