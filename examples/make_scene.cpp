@@ -1,0 +1,203 @@
+/// @file
+/// make_scene: generates a synthetic multi-epoch scene and writes it to a folder (PNG images,
+/// GeoTIFF DSMs, truth text file; see docs/synthetic-scenes.md), then prints a summary.
+///
+///   make_scene OUT_DIR [--seed N] [--dem PATH] [--images-per-epoch RxC] [--image-size WxH]
+///              [--epochs N] [--check-points N] [--dome M] [--offset X,Y] [--threads N]
+
+#include <chrono>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <exception>
+#include <iostream>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <type_traits>
+#include <utility>
+#include <vector>
+
+#include <diachron/io/geotiff.hpp>
+#include <diachron/synth/scene.hpp>
+#include <diachron/synth/scene_io.hpp>
+
+namespace {
+
+constexpr const char* kUsage =
+    "usage: make_scene OUT_DIR [options]\n"
+    "  --seed N                 random seed (default 0)\n"
+    "  --dem PATH               real DEM (GeoTIFF) as terrain instead of procedural relief\n"
+    "  --images-per-epoch RxC   flight lines x images per line (default 2x3)\n"
+    "  --image-size WxH         image size in pixels (default 400x300; focal length scales with W)\n"
+    "  --epochs N               number of epochs, oldest first (default 2)\n"
+    "  --check-points N         check points wanted (default 100)\n"
+    "  --dome M                 dome bending of every epoch DSM, metres (default 0)\n"
+    "  --offset X,Y             world X, Y of the scene centre, metres (default 0,0; procedural only)\n"
+    "  --flying-height M        flying height of every epoch above the mean ground, metres\n"
+    "  --threads N              worker threads, 0 = all cores (default 0)\n";
+
+struct Arguments {
+  std::string out_dir;
+  std::uint64_t seed = 0;
+  std::optional<std::string> dem;
+  int rows = 2, columns = 3, width = 400, height = 300, epochs = 2, check_points = 100;
+  double dome = 0.0, offset_x = 0.0, offset_y = 0.0, flying_height = 0.0;
+  std::size_t threads = 0;
+};
+
+[[noreturn]] void usage_error(const std::string& message) {
+  std::cerr << "make_scene: " << message << "\n" << kUsage;
+  std::exit(1);
+}
+
+template <class T>
+T parse_number(const std::string& text, const std::string& option) {
+  try {
+    std::size_t used = 0;
+    T value;
+    if constexpr (std::is_same_v<T, double>) {
+      value = std::stod(text, &used);
+    } else if constexpr (std::is_same_v<T, std::uint64_t>) {
+      if (!text.empty() && text[0] == '-') throw std::invalid_argument("negative");
+      value = std::stoull(text, &used);
+    } else {
+      value = static_cast<T>(std::stoll(text, &used));
+    }
+    if (used != text.size()) throw std::invalid_argument("trailing characters");
+    return value;
+  } catch (const std::exception&) {
+    usage_error("bad value '" + text + "' for " + option);
+  }
+}
+
+std::pair<std::string, std::string> split(const std::string& text, char separator, const std::string& option) {
+  const auto at = text.find(separator);
+  if (at == std::string::npos) usage_error("bad value '" + text + "' for " + option);
+  return {text.substr(0, at), text.substr(at + 1)};
+}
+
+Arguments parse(int argc, char** argv) {
+  Arguments a;
+  std::vector<std::string> args(argv + 1, argv + argc);
+  for (std::size_t i = 0; i < args.size(); ++i) {
+    const std::string& arg = args[i];
+    if (arg == "-h" || arg == "--help") {
+      std::cout << kUsage;
+      std::exit(0);
+    }
+    if (arg.rfind("--", 0) == 0) {
+      if (i + 1 >= args.size()) usage_error("missing value for " + arg);
+      const std::string value = args[++i];
+      if (arg == "--seed") {
+        a.seed = parse_number<std::uint64_t>(value, arg);
+      } else if (arg == "--dem") {
+        a.dem = value;
+      } else if (arg == "--images-per-epoch") {
+        const auto [r, c] = split(value, 'x', arg);
+        a.rows = parse_number<int>(r, arg);
+        a.columns = parse_number<int>(c, arg);
+        if (a.rows < 1 || a.columns < 1) usage_error("--images-per-epoch needs positive RxC");
+      } else if (arg == "--image-size") {
+        const auto [w, h] = split(value, 'x', arg);
+        a.width = parse_number<int>(w, arg);
+        a.height = parse_number<int>(h, arg);
+        if (a.width < 16 || a.height < 16) usage_error("--image-size needs at least 16x16");
+      } else if (arg == "--epochs") {
+        a.epochs = parse_number<int>(value, arg);
+        if (a.epochs < 1 || a.epochs > 100) usage_error("--epochs must be in [1, 100]");
+      } else if (arg == "--check-points") {
+        a.check_points = parse_number<int>(value, arg);
+        if (a.check_points < 0) usage_error("--check-points must be >= 0");
+      } else if (arg == "--dome") {
+        a.dome = parse_number<double>(value, arg);
+      } else if (arg == "--offset") {
+        const auto [x, y] = split(value, ',', arg);
+        a.offset_x = parse_number<double>(x, arg);
+        a.offset_y = parse_number<double>(y, arg);
+      } else if (arg == "--flying-height") {
+        a.flying_height = parse_number<double>(value, arg);
+        if (!(a.flying_height > 0.0)) usage_error("--flying-height must be > 0");
+      } else if (arg == "--threads") {
+        a.threads = static_cast<std::size_t>(parse_number<std::uint64_t>(value, arg));
+      } else {
+        usage_error("unknown option " + arg);
+      }
+    } else if (a.out_dir.empty()) {
+      a.out_dir = arg;
+    } else {
+      usage_error("more than one output folder given");
+    }
+  }
+  if (a.out_dir.empty()) usage_error("missing OUT_DIR");
+  return a;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const Arguments args = parse(argc, argv);
+  try {
+    diachron::SceneOptions options;
+    options.seed = args.seed;
+    options.threads = args.threads;
+    options.check_points = args.check_points;
+    options.terrain.centre_x_m = args.offset_x;
+    options.terrain.centre_y_m = args.offset_y;
+    options.epochs.clear();
+    for (int e = 0; e < args.epochs; ++e) {
+      // The last epoch is the recent one; older ones are historical with their own headings.
+      const std::string name = "e" + std::to_string(e + 1);
+      diachron::EpochOptions epoch =
+          e + 1 == args.epochs && args.epochs > 1 ? diachron::EpochOptions::recent(name) : diachron::EpochOptions::historical(name);
+      if (e + 1 < args.epochs) epoch.heading_deg = -25.0 * e;
+      epoch.rows = args.rows;
+      epoch.columns = args.columns;
+      epoch.focal_px *= static_cast<double>(args.width) / epoch.image_width_px;
+      epoch.image_width_px = args.width;
+      epoch.image_height_px = args.height;
+      epoch.dsm.dome_m = args.dome;
+      if (args.flying_height > 0.0) {
+        // Keep the ground sampling distance of the preset: the focal length follows the height.
+        epoch.focal_px *= args.flying_height / epoch.flying_height_m;
+        epoch.flying_height_m = args.flying_height;
+      }
+      options.epochs.push_back(epoch);
+    }
+    if (args.dem) {
+      diachron::GeoTiffReadOptions read;
+      read.assume_untagged_nodata = true;
+      options.real_dem = diachron::read_geotiff_dsm(*args.dem, read);
+    }
+
+    const auto t0 = std::chrono::steady_clock::now();
+    const diachron::Scene scene = diachron::generate_scene(options);
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    diachron::write_scene(scene, args.out_dir);
+
+    std::printf("scene written to %s (seed %llu, generated in %.2f s)\n", args.out_dir.c_str(),
+                static_cast<unsigned long long>(scene.seed), seconds);
+    std::printf("world: X [%.1f, %.1f] Y [%.1f, %.1f] m, reference height %.1f m, %zu buildings over all epochs\n",
+                scene.bounds.min_x, scene.bounds.max_x, scene.bounds.min_y, scene.bounds.max_y, scene.reference_height_m,
+                scene.landscape.buildings.size());
+    for (const diachron::SyntheticEpoch& epoch : scene.epochs) {
+      const diachron::Helmert3& h = epoch.world_from_epoch;
+      std::printf("%s: %zu images %dx%d px, f %.1f px, GSD %.2f m, DSM %dx%d (%zu valid), %zu tie points, "
+                  "world_from_epoch scale %.4f rotation %.2f deg\n",
+                  epoch.name.c_str(), epoch.images.size(), epoch.camera.width(), epoch.camera.height(),
+                  epoch.camera.focal(), epoch.gsd_m, epoch.dsm.width(), epoch.dsm.height(), epoch.dsm.statistics().count,
+                  epoch.tie_points.size(), h.scale, diachron::rad_to_deg(diachron::rotation_angle(h.rotation)));
+    }
+    std::printf("%zu check points seen in every epoch\n", scene.check_points.size());
+    if (scene.epochs.size() >= 2) {
+      const diachron::Helmert3 h = scene.epoch2_from_epoch1();
+      std::printf("true epoch2_from_epoch1: scale %.6f, rotation %.4f deg, translation (%.3f, %.3f, %.3f)\n", h.scale,
+                  diachron::rad_to_deg(diachron::rotation_angle(h.rotation)), h.translation.x(), h.translation.y(),
+                  h.translation.z());
+    }
+  } catch (const std::exception& e) {
+    std::cerr << "make_scene: " << e.what() << "\n";
+    return 1;
+  }
+  return 0;
+}
