@@ -22,6 +22,7 @@ using diachron::PointPair3;
 
 static_assert(diachron::is_estimator_v<Helmert3Estimator>);
 static_assert(diachron::estimator_has_refine_v<Helmert3Estimator>);
+static_assert(diachron::estimator_has_residual_function_v<Helmert3Estimator>);
 static_assert(diachron::estimator_has_degenerate_v<Helmert3Estimator>);
 static_assert(diachron::check_estimator<Helmert3Estimator>());
 static_assert(Helmert3Estimator::kSampleSize == 3 && Helmert3Estimator::kMaxModels == 1);

@@ -22,6 +22,7 @@ using diachron::Similarity2Estimator;
 
 static_assert(diachron::is_estimator_v<Similarity2Estimator>);
 static_assert(diachron::estimator_has_refine_v<Similarity2Estimator>);
+static_assert(diachron::estimator_has_residual_function_v<Similarity2Estimator>);
 static_assert(diachron::estimator_has_degenerate_v<Similarity2Estimator>);
 static_assert(diachron::check_estimator<Similarity2Estimator>());
 static_assert(Similarity2Estimator::kSampleSize == 2 && Similarity2Estimator::kMaxModels == 1);

@@ -81,11 +81,15 @@ class Helmert3Estimator {
     return models;
   }
 
-  /// |X2 - model(X1)| in target units.
-  double residual(const Model& model, const Datum& datum) const {
-    return (model.scale * (model.rotation * datum.source) + model.translation - datum.target)
-        .norm();
+  /// residual(model, .) with scale * R formed once: the RANSAC hot loop.
+  auto residual_function(const Model& model) const {
+    const Eigen::Matrix3d sr = model.scale * model.rotation;
+    const Eigen::Vector3d t = model.translation;
+    return [sr, t](const Datum& datum) { return (sr * datum.source + t - datum.target).norm(); };
   }
+
+  /// |X2 - model(X1)| in target units.
+  double residual(const Model& model, const Datum& datum) const { return residual_function(model)(datum); }
 
   /// Weighted least-squares Helmert on `data` (`initial` is not needed: the fit is closed form).
   /// `weights` null for unit weights, else one finite weight >= 0 per datum. nullopt when the data

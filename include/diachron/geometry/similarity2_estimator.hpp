@@ -88,16 +88,20 @@ class Similarity2Estimator {
     return models;
   }
 
-  /// |target - model(source)| in target units.
-  double residual(const Model& model, const Datum& datum) const {
+  /// residual(model, .) with s cos(angle) and s sin(angle) computed once: the RANSAC hot loop.
+  auto residual_function(const Model& model) const {
     const double a = model.scale * std::cos(model.angle);
     const double b = model.scale * std::sin(model.angle);
-    const double ex =
-        a * datum.source.x() - b * datum.source.y() + model.translation.x() - datum.target.x();
-    const double ey =
-        b * datum.source.x() + a * datum.source.y() + model.translation.y() - datum.target.y();
-    return std::sqrt(ex * ex + ey * ey);
+    const double tx = model.translation.x(), ty = model.translation.y();
+    return [a, b, tx, ty](const Datum& datum) {
+      const double ex = a * datum.source.x() - b * datum.source.y() + tx - datum.target.x();
+      const double ey = b * datum.source.x() + a * datum.source.y() + ty - datum.target.y();
+      return std::sqrt(ex * ex + ey * ey);
+    };
   }
+
+  /// |target - model(source)| in target units.
+  double residual(const Model& model, const Datum& datum) const { return residual_function(model)(datum); }
 
   /// Weighted least-squares similarity on `data` (`initial` is not needed: the fit is closed form).
   /// `weights` null for unit weights, else one finite weight >= 0 per datum. nullopt when the data

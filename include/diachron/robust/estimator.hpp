@@ -30,6 +30,11 @@
 ///   std::optional<Model> refine(const Model& initial, const Subset<Datum>& data,
 ///                               const double* weights) const;
 ///
+///   // OPTIONAL. A callable `double(const Datum&)` equal to residual(model, .), built once per
+///   // model so that per-model work (cos/sin of an angle, scale * R) leaves the per-datum loop.
+///   // Without it, Ransac calls residual(model, datum) directly.
+///   auto residual_function(const Model& model) const;
+///
 ///   // OPTIONAL. True when the sample cannot give a meaningful model (coincident or collinear
 ///   // points). Ransac draws another sample instead. Without it every sample is tried.
 ///   bool degenerate(const Sample& sample) const;
@@ -87,7 +92,37 @@ template <class E>
 struct has_degenerate<E, std::void_t<decltype(std::declval<const E&>().degenerate(
                              std::declval<const typename E::Sample&>()))>> : std::true_type {};
 
+template <class E, class = void>
+struct has_residual_function : std::false_type {};
+template <class E>
+struct has_residual_function<
+    E, std::enable_if_t<std::is_convertible_v<
+           decltype(std::declval<const E&>().residual_function(std::declval<const typename E::Model&>())(
+               std::declval<const typename E::Datum&>())),
+           double>>> : std::true_type {};
+
 }  // namespace detail
+
+/// True when E provides the optional `residual_function` (see the requirements above).
+template <class E>
+inline constexpr bool estimator_has_residual_function_v = [] {
+  if constexpr (detail::has_estimator_types<E>::value) {
+    return detail::has_residual_function<E>::value;
+  } else {
+    return false;
+  }
+}();
+
+/// The fastest way to evaluate residuals of one model: the estimator's residual_function when it
+/// has one, else a callable that forwards to residual(). Holds a reference to `estimator`.
+template <class E>
+auto make_residual_function(const E& estimator, const typename E::Model& model) {
+  if constexpr (estimator_has_residual_function_v<E>) {
+    return estimator.residual_function(model);
+  } else {
+    return [&estimator, model](const typename E::Datum& datum) { return estimator.residual(model, datum); };
+  }
+}
 
 /// True when E has the types and constants the Estimator concept requires.
 template <class E>

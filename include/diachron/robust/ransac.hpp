@@ -308,8 +308,9 @@ typename Ransac<E, Sa, Sc, T, L>::Report Ransac<E, Sa, Sc, T, L>::run(const Datu
   inliers.clear();
   double score = 0.0;
   double sum_squares = 0.0;
+  const auto residual = make_residual_function(estimator_, best_model);
   for (std::size_t i = 0; i < size; ++i) {
-    const double r = estimator_.residual(best_model, data[i]);
+    const double r = residual(data[i]);
     score += scoring_.gain(r, options_.threshold);
     if (r <= options_.threshold) {
       report.inlier_mask[i] = 1;

@@ -49,6 +49,7 @@ class RansacProblem {
     Support support;
     double score = 0.0;
     std::size_t inliers = 0;
+    const auto residual = make_residual_function(estimator_, model);
     if (scoring_.early_exit) {
       // Every gain is <= 1, so a hypothesis at `score` with `left` data to go ends at most at
       // score + left. The margin covers rounding in the two sums being compared (each at most
@@ -57,7 +58,7 @@ class RansacProblem {
       const double bar = to_beat - 4.0 * (n + 1.0) * (n + 1.0) * DBL_EPSILON;
       double left = n;
       for (std::size_t i = 0; i < size_; ++i) {
-        const double r = estimator_.residual(model, data_[i]);
+        const double r = residual(data_[i]);
         score += scoring_.gain(r, threshold_);
         inliers += r <= threshold_ ? 1 : 0;
         left -= 1.0;
@@ -68,7 +69,7 @@ class RansacProblem {
       }
     } else {
       for (std::size_t i = 0; i < size_; ++i) {
-        const double r = estimator_.residual(model, data_[i]);
+        const double r = residual(data_[i]);
         score += scoring_.gain(r, threshold_);
         inliers += r <= threshold_ ? 1 : 0;
       }
@@ -86,8 +87,9 @@ class RansacProblem {
                std::size_t& residual_evaluations) const {
     indices.clear();
     if (residuals) residuals->clear();
+    const auto residual = make_residual_function(estimator_, model);
     for (std::size_t i = 0; i < size_; ++i) {
-      const double r = estimator_.residual(model, data_[i]);
+      const double r = residual(data_[i]);
       if (r <= threshold_) {
         indices.push_back(i);
         if (residuals) residuals->push_back(r);
