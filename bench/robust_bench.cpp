@@ -538,7 +538,7 @@ void usage(const char* program) {
   std::cout << "usage: " << program << " [--quick] [--sizes 10k,100k,1M] [--outliers 50,90] [--seeds S]\n"
             << "            [--budget SECONDS] [--min-seeds S]"
             << " [--only 2d|3d] [--ours-only]\n"
-            << "  --quick       10k and 100k pairs, 5 seeds, 3 s budget (about a minute)\n"
+            << "  --quick       10k and 100k pairs, 5 seeds, 3 s budget (under a minute)\n"
             << "  --sizes       comma-separated pair counts, k and M suffixes allowed\n"
             << "  --outliers    comma-separated outlier percentages (default 50,90)\n"
             << "  --seeds       data sets (and RANSAC seeds) per scenario (default 20)\n"
