@@ -209,7 +209,7 @@ inline Vec3 sun_direction(const LookOptions& look) {
 }
 
 /// Separable Gaussian blur with clamped edges.
-inline Raster<float> gaussian_blur(const Raster<float>& in, double sigma, std::size_t threads) {
+inline Raster<float> blur_radiance(const Raster<float>& in, double sigma, std::size_t threads) {
   if (sigma <= 0.0 || in.empty()) return in;
   const int radius = std::max(1, static_cast<int>(std::ceil(3.0 * sigma)));
   std::vector<double> kernel(static_cast<std::size_t>(2 * radius + 1));
@@ -349,7 +349,7 @@ inline Raster<std::uint8_t> develop_image(const Raster<float>& radiance, const L
                                           std::uint64_t seed, std::uint64_t stream, std::size_t threads = 0) {
   look.check();
   const int w = radiance.width(), h = radiance.height();
-  Raster<float> img = detail::gaussian_blur(radiance, look.blur_sigma_px, threads);
+  Raster<float> img = detail::blur_radiance(radiance, look.blur_sigma_px, threads);
   const double half_diagonal = 0.5 * std::hypot(w - 1.0, h - 1.0);
   parallel_for(static_cast<std::size_t>(h), threads, [&](std::size_t row) {
     const int y = static_cast<int>(row);

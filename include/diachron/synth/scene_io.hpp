@@ -47,25 +47,25 @@ inline constexpr int kSceneFileVersion = 1;
 
 namespace detail {
 
-inline void make_directory(const std::string& path) {
+inline void make_scene_directory(const std::string& path) {
   if (::mkdir(path.c_str(), 0755) != 0 && errno != EEXIST)
     throw Error("diachron: cannot create the folder '" + path + "'");
   struct stat info {};
   DIACHRON_CHECK(::stat(path.c_str(), &info) == 0 && S_ISDIR(info.st_mode), "'" << path << "' is not a folder");
 }
 
-inline void write_matrix(std::ostream& out, const Mat3& m) {
+inline void write_scene_matrix(std::ostream& out, const Mat3& m) {
   for (int r = 0; r < 3; ++r)
     for (int c = 0; c < 3; ++c) out << ' ' << m(r, c);
 }
 
-inline void write_pose(std::ostream& out, const char* key, const Pose& pose) {
+inline void write_scene_pose(std::ostream& out, const char* key, const Pose& pose) {
   out << key;
-  write_matrix(out, pose.cam_from_world_rotation());
+  write_scene_matrix(out, pose.cam_from_world_rotation());
   out << ' ' << pose.centre().x() << ' ' << pose.centre().y() << ' ' << pose.centre().z() << '\n';
 }
 
-inline void write_camera(std::ostream& out, const char* key, const Camera<FraserAffine>& camera) {
+inline void write_scene_camera(std::ostream& out, const char* key, const Camera<FraserAffine>& camera) {
   out << key << ' ' << camera.focal() << ' ' << camera.cx() << ' ' << camera.cy() << ' ' << camera.width() << ' '
       << camera.height();
   for (double p : camera.params()) out << ' ' << p;
@@ -164,7 +164,7 @@ class SceneTextReader {
   int number_ = 0;
 };
 
-inline Raster<std::uint8_t> read_image_u8(const std::string& path) {
+inline Raster<std::uint8_t> read_scene_image(const std::string& path) {
   GeoTiffReadOptions options;
   options.allow_missing_geotransform = true;
   const Dsm raster = read_geotiff_dsm(path, options);
@@ -187,8 +187,8 @@ inline Dsm albedo_as_dsm(const AlbedoMap& albedo) { return Dsm(albedo.values, al
 /// surfaces and albedo rasters. Throws diachron::Error naming the file that cannot be written.
 inline void write_scene(const Scene& scene, const std::string& directory) {
   DIACHRON_CHECK(!directory.empty(), "write_scene: empty folder name");
-  detail::make_directory(directory);
-  detail::make_directory(directory + "/images");
+  detail::make_scene_directory(directory);
+  detail::make_scene_directory(directory + "/images");
   const std::string text_path = directory + "/scene.txt";
   std::ofstream out(text_path);
   DIACHRON_CHECK(out.good(), "cannot write '" << text_path << "': the file cannot be created");
@@ -205,17 +205,17 @@ inline void write_scene(const Scene& scene, const std::string& directory) {
     out << "epoch " << epoch.name << '\n';
     out << "gsd " << epoch.gsd_m << '\n';
     out << "world_from_epoch " << epoch.world_from_epoch.scale;
-    detail::write_matrix(out, epoch.world_from_epoch.rotation);
+    detail::write_scene_matrix(out, epoch.world_from_epoch.rotation);
     out << ' ' << epoch.world_from_epoch.translation.x() << ' ' << epoch.world_from_epoch.translation.y() << ' '
         << epoch.world_from_epoch.translation.z() << '\n';
-    detail::write_camera(out, "camera", epoch.camera);
-    detail::write_camera(out, "estimated_camera", epoch.estimated_camera);
+    detail::write_scene_camera(out, "camera", epoch.camera);
+    detail::write_scene_camera(out, "estimated_camera", epoch.estimated_camera);
     out << "images " << epoch.images.size() << '\n';
     for (const SyntheticImage& image : epoch.images) {
       out << "image " << image.name << ' ' << image.row << ' ' << image.column << '\n';
-      detail::write_pose(out, "pose_world", image.pose_world);
-      detail::write_pose(out, "pose_epoch", image.pose_epoch);
-      detail::write_pose(out, "estimated_pose", image.estimated_pose);
+      detail::write_scene_pose(out, "pose_world", image.pose_world);
+      detail::write_scene_pose(out, "pose_epoch", image.pose_epoch);
+      detail::write_scene_pose(out, "estimated_pose", image.estimated_pose);
       write_image_u8(image.pixels, directory + "/images/" + image.name + ".png");
     }
     out << "tie_points " << epoch.tie_points.size() << '\n';
@@ -288,7 +288,7 @@ inline Scene read_scene(const std::string& directory) {
       image.pose_world = in.pose("pose_world");
       image.pose_epoch = in.pose("pose_epoch");
       image.estimated_pose = in.pose("estimated_pose");
-      image.pixels = detail::read_image_u8(directory + "/images/" + image.name + ".png");
+      image.pixels = detail::read_scene_image(directory + "/images/" + image.name + ".png");
       DIACHRON_CHECK(image.pixels.width() == epoch.camera.width() && image.pixels.height() == epoch.camera.height(),
                      "'" << directory << "/images/" << image.name << ".png' is " << image.pixels.width() << " x "
                          << image.pixels.height() << ", the camera " << epoch.camera.width() << " x "

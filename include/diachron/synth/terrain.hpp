@@ -207,7 +207,7 @@ namespace detail {
 
 /// Fills NaN cells of `heights` with the mean of their valid 8-neighbours, sweeping until none is
 /// left (or no progress), so that a real DEM with nodata gaps becomes a closed surface.
-inline void fill_holes(Raster<float>& heights) {
+inline void fill_dem_holes(Raster<float>& heights) {
   const int w = heights.width(), h = heights.height();
   std::vector<std::pair<int, float>> updates;
   for (int pass = 0; pass < w + h; ++pass) {
@@ -300,7 +300,7 @@ inline Landscape make_landscape(const TerrainOptions& options, const ChangeOptio
   if (real_dem != nullptr) {
     DIACHRON_CHECK(!real_dem->empty(), "make_landscape: the real DEM is empty");
     Raster<float> filled = real_dem->heights();
-    detail::fill_holes(filled);
+    detail::fill_dem_holes(filled);
     const Dsm dem(std::move(filled), real_dem->transform(), real_dem->crs());
     crs = real_dem->crs();
     for (int y = 0; y < h; ++y)
