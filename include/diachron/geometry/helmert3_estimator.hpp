@@ -82,10 +82,18 @@ class Helmert3Estimator {
   }
 
   /// residual(model, .) with scale * R formed once: the RANSAC hot loop.
-  auto residual_function(const Model& model) const {
-    const Eigen::Matrix3d sr = model.scale * model.rotation;
-    const Eigen::Vector3d t = model.translation;
-    return [sr, t](const Datum& datum) { return (sr * datum.source + t - datum.target).norm(); };
+  /// operator() is the distance, squared() its square (operator() == std::sqrt(squared())).
+  struct ResidualFunction {
+    Eigen::Matrix3d sr;
+    Eigen::Vector3d t;
+    double squared(const Datum& datum) const {
+      return (sr * datum.source + t - datum.target).squaredNorm();
+    }
+    double operator()(const Datum& datum) const { return std::sqrt(squared(datum)); }
+  };
+
+  ResidualFunction residual_function(const Model& model) const {
+    return ResidualFunction{model.scale * model.rotation, model.translation};
   }
 
   /// |X2 - model(X1)| in target units.

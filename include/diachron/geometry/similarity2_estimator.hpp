@@ -89,15 +89,21 @@ class Similarity2Estimator {
   }
 
   /// residual(model, .) with s cos(angle) and s sin(angle) computed once: the RANSAC hot loop.
-  auto residual_function(const Model& model) const {
-    const double a = model.scale * std::cos(model.angle);
-    const double b = model.scale * std::sin(model.angle);
-    const double tx = model.translation.x(), ty = model.translation.y();
-    return [a, b, tx, ty](const Datum& datum) {
+  /// operator() is the distance, squared() its square (operator() == std::sqrt(squared())).
+  struct ResidualFunction {
+    double a, b, tx, ty;
+    double squared(const Datum& datum) const {
       const double ex = a * datum.source.x() - b * datum.source.y() + tx - datum.target.x();
       const double ey = b * datum.source.x() + a * datum.source.y() + ty - datum.target.y();
-      return std::sqrt(ex * ex + ey * ey);
-    };
+      return ex * ex + ey * ey;
+    }
+    double operator()(const Datum& datum) const { return std::sqrt(squared(datum)); }
+  };
+
+  ResidualFunction residual_function(const Model& model) const {
+    return ResidualFunction{model.scale * std::cos(model.angle),
+                            model.scale * std::sin(model.angle), model.translation.x(),
+                            model.translation.y()};
   }
 
   /// |target - model(source)| in target units.

@@ -16,6 +16,12 @@
 ///   // The bound is exact, so the winner, the iterations and the final model are unchanged; only
 ///   // the residual evaluations drop.
 ///   bool early_exit;
+///
+///   // OPTIONAL. A callable double(double squared_residual) equal to gain(sqrt(r2), t) up to
+///   // rounding, 0 unless r2 <= squared_threshold (which Ransac picks so that this is exactly
+///   // sqrt(r2) <= t). Lets Ransac score without a sqrt and a division per datum when the
+///   // estimator's residual function has squared() (see robust/ransac_problem.hpp).
+///   auto squared_gain(double squared_threshold) const;
 /// };
 /// @endcode
 /// Models: InlierCount (this header), Msac (robust/msac_scoring.hpp).
@@ -51,6 +57,11 @@ struct InlierCount {
   bool early_exit = true;
 
   double gain(double residual, double threshold) const { return residual <= threshold ? 1.0 : 0.0; }
+
+  /// gain() on squared residuals (see the concept): 1 when r2 <= squared_threshold.
+  auto squared_gain(double squared_threshold) const {
+    return [squared_threshold](double r2) { return r2 <= squared_threshold ? 1.0 : 0.0; };
+  }
 };
 
 static_assert(is_scoring_v<InlierCount>, "InlierCount must model the Scoring concept");

@@ -20,6 +20,16 @@ struct Msac {
     const double q = residual / threshold;
     return q < 1.0 ? 1.0 - q * q : 0.0;
   }
+
+  /// gain() on squared residuals (see the concept): 1 - r2 / t2 for inliers, as a multiplication by
+  /// a reciprocal formed once; branch-free select, 0 for outliers and NaN.
+  auto squared_gain(double squared_threshold) const {
+    const double inverse = 1.0 / squared_threshold;
+    return [squared_threshold, inverse](double r2) {
+      const double g = 1.0 - r2 * inverse;
+      return (r2 <= squared_threshold && g > 0.0) ? g : 0.0;
+    };
+  }
 };
 
 static_assert(is_scoring_v<Msac>, "Msac must model the Scoring concept");

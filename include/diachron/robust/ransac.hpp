@@ -17,7 +17,9 @@
 #include <array>
 #include <cmath>
 #include <cstddef>
+#include <cstdint>
 #include <limits>
+#include <type_traits>
 #include <sstream>
 #include <utility>
 #include <vector>
@@ -36,9 +38,26 @@
 #include <diachron/robust/ransac_problem.hpp>
 #include <diachron/robust/ransac_report.hpp>
 #include <diachron/robust/refit_local_optimization.hpp>
+#include <diachron/robust/sprt.hpp>
 #include <diachron/robust/uniform_sampler.hpp>
 
 namespace diachron {
+
+namespace detail {
+
+// Local-optimisation policies may take a RandomStream& as a fifth argument (Refit does, for its
+// random subset); Ransac then hands them RandomStream(seed, ~iteration), a stream no sample uses.
+template <class L, class E, class S, class = void>
+struct local_optimization_takes_stream : std::false_type {};
+template <class L, class E, class S>
+struct local_optimization_takes_stream<
+    L, E, S,
+    std::void_t<decltype(std::declval<const L&>().optimize(
+        std::declval<const RansacProblem<E, S>&>(), std::declval<typename E::Model&>(),
+        std::declval<Support&>(), std::declval<std::size_t&>(), std::declval<RandomStream&>()))>>
+    : std::true_type {};
+
+}  // namespace detail
 
 /// Robust estimation of an Estimator's model from data with outliers.
 ///
@@ -47,7 +66,9 @@ namespace diachron {
 /// model of the sample, and the best of them becomes the best model when its score is strictly
 /// higher; then local optimisation runs on it, and the Termination policy decides whether to stop.
 /// Finally the best model is refit on all its inliers (options.final_refit, estimators with
-/// `refine` only), the refit kept unless it has fewer inliers, and inliers are computed once.
+/// `refine` only; up to three unweighted refits, each on the previous one's inliers, until the
+/// inlier count stops changing), the refit kept when it has at least as many inliers or a higher
+/// score, and inliers are computed once.
 ///
 /// Determinism. Hypotheses are processed in batches (of 1, 2, 4, ... then 64 iterations; a fixed
 /// schedule). Within a batch they are generated and scored independently, on options.threads
@@ -55,6 +76,13 @@ namespace diachron {
 /// merged strictly in iteration order, and hypotheses past the stopping iteration are discarded.
 /// Since every early exit is exact and each iteration's randomness comes from its own stream, the
 /// report (model, inliers, iterations, score and all counters) is identical for every thread count.
+/// Local optimisation of the best found at iteration i draws from RandomStream(seed, ~i).
+///
+/// SPRT (options.sprt). Each batch uses one test, built before the batch from the best model so
+/// far (epsilon = its inlier rate) and delta (options.sprt_delta, then the inlier rate measured on
+/// the hypotheses rejected in earlier batches); the test state changes only at the merge, so it
+/// too is the same for every thread count. The stopping rule is lengthened for the probability
+/// 1 / A of rejecting a good model (robust/sprt.hpp).
 ///
 /// Errors. Invalid options (threshold <= 0 or non-finite, ...) throw diachron::Error from the
 /// constructor; a null data pointer with a non-zero size throws from run(). "No answer" is not an
@@ -130,6 +158,9 @@ class Ransac {
     bool has_model = false;
     std::size_t generated = 0;
     std::size_t stopped_early = 0;
+    std::size_t rejected_sprt = 0;
+    std::size_t rejected_evaluated = 0;
+    std::size_t rejected_inliers = 0;
     std::size_t degenerate = 0;
     std::size_t residual_evaluations = 0;
   };
@@ -137,11 +168,21 @@ class Ransac {
   using Problem = RansacProblem<Estimator, Scoring>;
 
   void run_iteration(const Problem& problem, const Sampler& sampler, std::size_t iteration,
-                     double bound, Slot& slot) const;
+                     double bound, const SprtTest* sprt, Slot& slot) const;
 
-  std::size_t needed_iterations(std::size_t best_inliers, std::size_t num_data) const {
-    const std::size_t k =
-        termination_.required_iterations(options_, best_inliers, num_data, kSampleSize);
+  std::size_t needed_iterations(std::size_t best_inliers, std::size_t num_data,
+                                double false_rejection = 0.0) const {
+    std::size_t k = termination_.required_iterations(options_, best_inliers, num_data, kSampleSize);
+    if (false_rejection > 0.0 && k < options_.max_iterations) {
+      const double p = std::pow(
+          static_cast<double>(best_inliers) / static_cast<double>(num_data),
+          static_cast<double>(kSampleSize));
+      const double adjusted =
+          sprt_adjusted_iterations(static_cast<double>(k), p, false_rejection);
+      k = adjusted >= static_cast<double>(options_.max_iterations)
+              ? options_.max_iterations
+              : static_cast<std::size_t>(adjusted);
+    }
     return std::min(std::max<std::size_t>(k, 1), options_.max_iterations);
   }
 
@@ -158,13 +199,16 @@ class Ransac {
 template <class E, class Sa, class Sc, class T, class L>
 void Ransac<E, Sa, Sc, T, L>::run_iteration(const Problem& problem, const Sa& sampler,
                                             std::size_t iteration, double bound,
-                                            Slot& slot) const {
+                                            const SprtTest* sprt, Slot& slot) const {
   // Fields reset one by one: the model is overwritten before it is read, and assigning a
   // value-initialised Eigen model would copy uninitialised storage.
   slot.has_model = false;
   slot.support = Support{};
   slot.generated = 0;
   slot.stopped_early = 0;
+  slot.rejected_sprt = 0;
+  slot.rejected_evaluated = 0;
+  slot.rejected_inliers = 0;
   slot.degenerate = 0;
   slot.residual_evaluations = 0;
   RandomStream rng(options_.seed, iteration);
@@ -189,9 +233,14 @@ void Ransac<E, Sa, Sc, T, L>::run_iteration(const Problem& problem, const Sa& sa
       // Only a model strictly better than both the batch's bound and this sample's best so far
       // can matter, so that is the bar for early exit.
       const double bar = slot.has_model ? std::max(bound, slot.support.score) : bound;
-      const Support support = problem.score(model, bar, slot.residual_evaluations);
+      const Support support = problem.score(model, bar, slot.residual_evaluations, sprt);
       if (!support.complete) {
         ++slot.stopped_early;
+        if (support.rejected_by_sprt) {
+          ++slot.rejected_sprt;
+          slot.rejected_evaluated += support.evaluated;
+          slot.rejected_inliers += support.inliers_seen;
+        }
         continue;
       }
       if (!slot.has_model || support.score > slot.support.score) {
@@ -230,26 +279,50 @@ typename Ransac<E, Sa, Sc, T, L>::Report Ransac<E, Sa, Sc, T, L>::run(const Datu
   Support best;  // score 0: a hypothesis must have some positive gain to become the best
   bool has_best = false;
   std::vector<Slot> slots(kMaxBatch);
-  std::size_t needed = needed_iterations(0, size);
   std::size_t iteration = 0;
+  // SPRT state: changed only at the merge, in iteration order.
+  std::size_t rejected_evaluated = 0;
+  std::size_t rejected_inliers = 0;
+  const auto current_sprt = [&]() {
+    if (!options_.sprt || !has_best) return SprtTest{};
+    double delta = options_.sprt_delta;
+    if (rejected_evaluated >= 10 * kScoreBlock) {
+      delta = std::max(static_cast<double>(rejected_inliers), 1.0) /
+              static_cast<double>(rejected_evaluated);
+    }
+    const double epsilon = static_cast<double>(best.num_inliers) / static_cast<double>(size);
+    // Models per sample, m_S of the paper: measured over the iterations merged so far.
+    const double models_per_sample =
+        static_cast<double>(report.hypotheses_generated) /
+        static_cast<double>(std::max<std::size_t>(iteration, 1));
+    return make_sprt_test(epsilon, delta, options_.sprt_model_cost, models_per_sample);
+  };
+  std::size_t needed = needed_iterations(0, size);
   std::size_t batch = 1;
   while (iteration < needed) {
     const std::size_t begin = iteration;
     const std::size_t count = std::min(batch, needed - begin);
     batch = std::min(batch * 2, kMaxBatch);
     const double bound = best.score;
+    const SprtTest sprt = current_sprt();
+    const SprtTest* sprt_ptr = sprt.active ? &sprt : nullptr;
     if (threads > 1 && count > 1) {
       parallel_for(count, threads, [&](std::size_t j) {
-        run_iteration(problem, sampler, begin + j, bound, slots[j]);
+        run_iteration(problem, sampler, begin + j, bound, sprt_ptr, slots[j]);
       });
     }
     for (std::size_t j = 0; j < count; ++j) {
       Slot& slot = slots[j];
       // One thread computes each iteration only when the merge reaches it, so no hypothesis past
       // the stopping iteration is ever built; the bound is the same as with many threads.
-      if (threads <= 1 || count == 1) run_iteration(problem, sampler, begin + j, bound, slot);
+      if (threads <= 1 || count == 1) {
+        run_iteration(problem, sampler, begin + j, bound, sprt_ptr, slot);
+      }
       report.hypotheses_generated += slot.generated;
       report.hypotheses_stopped_early += slot.stopped_early;
+      report.hypotheses_rejected_sprt += slot.rejected_sprt;
+      rejected_evaluated += slot.rejected_evaluated;
+      rejected_inliers += slot.rejected_inliers;
       report.degenerate_samples += slot.degenerate;
       report.residual_evaluations += slot.residual_evaluations;
       if (slot.has_model && slot.support.score > best.score) {
@@ -258,13 +331,21 @@ typename Ransac<E, Sa, Sc, T, L>::Report Ransac<E, Sa, Sc, T, L>::run(const Datu
         has_best = true;
         ++report.best_updates;
         const std::size_t evaluations_before = report.residual_evaluations;
-        if (local_optimization_.optimize(problem, best_model, best, report.residual_evaluations)) {
-          ++report.local_optimization_improvements;
+        bool improved = false;
+        if constexpr (detail::local_optimization_takes_stream<L, E, Sc>::value) {
+          RandomStream lo_rng(options_.seed, ~static_cast<std::uint64_t>(begin + j));
+          improved = local_optimization_.optimize(problem, best_model, best,
+                                                  report.residual_evaluations, lo_rng);
+        } else {
+          improved = local_optimization_.optimize(problem, best_model, best,
+                                                  report.residual_evaluations);
         }
+        if (improved) ++report.local_optimization_improvements;
         if (report.residual_evaluations != evaluations_before) ++report.local_optimizations;
       }
       iteration = begin + j + 1;
-      needed = needed_iterations(best.num_inliers, size);
+      needed = needed_iterations(best.num_inliers, size,
+                                 options_.sprt ? current_sprt().false_rejection() : 0.0);
       if (iteration >= needed) break;
     }
   }
@@ -286,38 +367,37 @@ typename Ransac<E, Sa, Sc, T, L>::Report Ransac<E, Sa, Sc, T, L>::run(const Datu
   std::vector<std::size_t> inliers;
   if constexpr (estimator_has_refine_v<E>) {
     if (options_.final_refit) {
-      problem.inliers(best_model, inliers, nullptr, report.residual_evaluations);
-      if (inliers.size() >= kSampleSize) {
+      // Up to three unweighted refits, each on the inliers of the previous one (local
+      // optimisation ran on a subset, so the first refit may still change the inlier set).
+      Model candidate = best_model;
+      bool have_candidate = false;
+      Support candidate_support;
+      for (int round = 0; round < 3; ++round) {
+        const std::size_t previous = inliers.size();
+        problem.inliers(candidate, inliers, nullptr, report.residual_evaluations);
+        if (inliers.size() < kSampleSize) break;
+        if (have_candidate && inliers.size() == previous) break;
         const Subset<Datum> subset(data, inliers.data(), inliers.size());
-        const auto refined = estimator_.refine(best_model, subset, nullptr);
-        if (refined) {
-          const Support support = problem.score(*refined, -std::numeric_limits<double>::infinity(),
-                                                report.residual_evaluations);
-          if (support.num_inliers >= best.num_inliers) {
-            best_model = *refined;
-            best = support;
-            report.final_refit = true;
-          }
-        }
+        const auto refined = estimator_.refine(candidate, subset, nullptr);
+        if (!refined) break;
+        candidate = *refined;
+        candidate_support = problem.score(candidate, -std::numeric_limits<double>::infinity(),
+                                          report.residual_evaluations);
+        have_candidate = true;
+      }
+      if (have_candidate && (candidate_support.num_inliers >= best.num_inliers ||
+                             candidate_support.score > best.score)) {
+        best_model = candidate;
+        best = candidate_support;
+        report.final_refit = true;
       }
     }
   }
 
   // One pass for mask, indices, score and rms of the final model.
-  report.inlier_mask.assign(size, 0);
-  inliers.clear();
   double score = 0.0;
   double sum_squares = 0.0;
-  const auto residual = make_residual_function(estimator_, best_model);
-  for (std::size_t i = 0; i < size; ++i) {
-    const double r = residual(data[i]);
-    score += scoring_.gain(r, options_.threshold);
-    if (r <= options_.threshold) {
-      report.inlier_mask[i] = 1;
-      inliers.push_back(i);
-      sum_squares += r * r;
-    }
-  }
+  problem.final_pass(best_model, report.inlier_mask, inliers, score, sum_squares);
   report.residual_evaluations += size;
 
   const std::size_t min_inliers =

@@ -58,6 +58,23 @@ struct RansacOptions {
   /// estimator has one) and keep the refit unless it loses inliers.
   bool final_refit = true;
 
+  /// Reject hypotheses early with the sequential probability ratio test of randomized RANSAC
+  /// (Matas and Chum 2005; robust/sprt.hpp): after every block of 64 data, a hypothesis whose
+  /// inliers so far are much likelier under "bad model" (inlier rate sprt_delta, re-estimated from
+  /// the rejected models) than under "as good as the best so far" is dropped. A good model is
+  /// dropped with probability at most 1 / A (typically 1e-2 to 1e-3); the adaptive stopping rule is
+  /// lengthened to make up for it. The exact early exit still applies. Off by default: it trades a
+  /// small chance of missing the best hypothesis for far fewer residual evaluations per losing
+  /// hypothesis (see docs/benchmarks.md).
+  bool sprt = false;
+  /// Initial inlier rate of bad models, in (0, 1); replaced by the rate measured on rejected
+  /// hypotheses once they have been evaluated on at least 10 * 64 data in total.
+  double sprt_delta = 0.05;
+  /// Cost of making one hypothesis (sampling, minimal solver), in residual evaluations, > 0: the
+  /// paper's t_M, which sets the test's threshold A. Larger values make A larger (fewer false
+  /// rejections, later rejection of bad models).
+  double sprt_model_cost = 200.0;
+
   /// Throws diachron::Error naming the first invalid field.
   void check() const {
     DIACHRON_CHECK(std::isfinite(threshold) && threshold > 0.0,
@@ -70,6 +87,11 @@ struct RansacOptions {
     DIACHRON_CHECK(confidence > 0.0 && confidence <= 1.0,
                    "RansacOptions::confidence must be in (0, 1], got " << confidence);
     DIACHRON_CHECK(max_sample_attempts >= 1, "RansacOptions::max_sample_attempts must be >= 1");
+    DIACHRON_CHECK(sprt_delta > 0.0 && sprt_delta < 1.0,
+                   "RansacOptions::sprt_delta must be in (0, 1), got " << sprt_delta);
+    DIACHRON_CHECK(std::isfinite(sprt_model_cost) && sprt_model_cost > 0.0,
+                   "RansacOptions::sprt_model_cost must be finite and > 0, got "
+                       << sprt_model_cost);
   }
 };
 

@@ -41,6 +41,8 @@ struct RansacReport {
   std::size_t hypotheses_generated = 0;
   /// Hypotheses whose scoring stopped early because they could no longer beat the best.
   std::size_t hypotheses_stopped_early = 0;
+  /// Of hypotheses_stopped_early, those the SPRT rejected (RansacOptions::sprt; 0 without it).
+  std::size_t hypotheses_rejected_sprt = 0;
   /// Samples rejected as degenerate or giving no model (each one was redrawn or ended its
   /// iteration).
   std::size_t degenerate_samples = 0;
