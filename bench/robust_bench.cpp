@@ -104,8 +104,10 @@ void copy_counters(const RansacReport<Model>& report, Run& run) {
 
 // --- ours ----------------------------------------------------------------------------------------
 
-RansacOptions our_options(double threshold, std::uint64_t seed, bool paper_fixed) {
+RansacOptions our_options(double threshold, std::uint64_t seed, bool paper_fixed,
+                          bool sprt = false) {
   RansacOptions options;
+  options.sprt = sprt;
   options.threshold = threshold;
   options.seed = seed;
   if (paper_fixed) {
@@ -116,8 +118,8 @@ RansacOptions our_options(double threshold, std::uint64_t seed, bool paper_fixed
   return options;
 }
 
-Run run_ours2(const Problem2& p, std::uint64_t seed, bool paper_fixed) {
-  const RansacOptions options = our_options(p.threshold, seed, paper_fixed);
+Run run_ours2(const Problem2& p, std::uint64_t seed, bool paper_fixed, bool sprt = false) {
+  const RansacOptions options = our_options(p.threshold, seed, paper_fixed, sprt);
   Run run;
   const Stopwatch watch;
   const RansacReport<Similarity2> report = ransac_similarity2(p.pairs, options);
@@ -128,8 +130,8 @@ Run run_ours2(const Problem2& p, std::uint64_t seed, bool paper_fixed) {
   return run;
 }
 
-Run run_ours3(const Problem3& p, std::uint64_t seed, bool paper_fixed) {
-  const RansacOptions options = our_options(p.threshold, seed, paper_fixed);
+Run run_ours3(const Problem3& p, std::uint64_t seed, bool paper_fixed, bool sprt = false) {
+  const RansacOptions options = our_options(p.threshold, seed, paper_fixed, sprt);
   Run run;
   const Stopwatch watch;
   const RansacReport<Helmert3> report = ransac_helmert3(p.pairs, options);
@@ -365,6 +367,7 @@ struct Method {
   std::string name;
   bool fixed_1000 = false;  // runs the paper's fixed 1000 iterations (no counter to report them)
   bool reference = false;   // not robust (has the true inliers): success is not comparable
+  bool ours = false;        // a variant of ours (not a peer): left out of the ratio table
 };
 
 struct ScenarioResult {
@@ -410,11 +413,13 @@ ScenarioResult run_scenario(const Config& config, const std::string& model, std:
 ScenarioResult run2d(const Config& config, std::size_t n, double outliers) {
   std::vector<Method> methods{{"ours, defaults", false, false},
                               {"ours, fixed 1000 it.", true, false},
-                              {"OpenCV estimateAffinePartial2D", false, false}};
+                              {"OpenCV estimateAffinePartial2D", false, false},
+                              {"ours, SPRT", false, false, true}};
   auto run_method = [](std::size_t m, const Problem2& p, std::uint64_t seed) {
     switch (m) {
       case 0: return run_ours2(p, seed, false);
       case 1: return run_ours2(p, seed, true);
+      case 3: return run_ours2(p, seed, false, true);
       default: return run_opencv_partial2d(p, CvPoints2(p));
     }
   };
@@ -428,11 +433,13 @@ ScenarioResult run3d(const Config& config, std::size_t n, double outliers) {
   std::vector<Method> methods{{"ours, defaults", false, false},
                               {"ours, fixed 1000 it.", true, false},
                               {"plain loop: umeyama x 1000", true, false},
-                              {"OpenCV estimateAffine3D LS, true inliers", false, true}};
+                              {"OpenCV estimateAffine3D LS, true inliers", false, true},
+                              {"ours, SPRT", false, false, true}};
   auto run_method = [](std::size_t m, const Problem3& p, std::uint64_t seed) {
     switch (m) {
       case 0: return run_ours3(p, seed, false);
       case 1: return run_ours3(p, seed, true);
+      case 4: return run_ours3(p, seed, false, true);
       case 2: return run_umeyama_loop(p, seed, kPaperIterations);
       default: return run_opencv_ls3_on_inliers(p);
     }
@@ -482,17 +489,24 @@ void print_results(const std::vector<ScenarioResult>& results, const std::string
 /// to trust on a shared machine; wall time is given as well.
 void print_ratios(const std::vector<ScenarioResult>& results) {
   Table table({"model", "N", "outliers", "peer", "peer / ours (defaults), CPU", "same, wall",
-               "peer / ours (1000 it.), CPU", "success ours (defaults) vs peer"});
+               "peer / ours (1000 it.), CPU", "peer / ours (SPRT), CPU",
+               "success ours (defaults) vs peer", "success ours (SPRT)"});
   for (const ScenarioResult& r : results) {
+    const Stats* sprt = nullptr;
+    for (std::size_t m = 0; m < r.methods.size(); ++m) {
+      if (r.methods[m].ours && !r.stats[m].cpu_ms.empty()) sprt = &r.stats[m];
+    }
     for (std::size_t m = 2; m < r.methods.size(); ++m) {
-      if (r.methods[m].reference) continue;
+      if (r.methods[m].reference || r.methods[m].ours) continue;
       const Stats& s = r.stats[m];
       table.add({r.model, format_count(r.n), percent(r.outliers), r.methods[m].name,
                  format_number(median(s.cpu_ms) / median(r.stats[0].cpu_ms)),
                  format_number(median(s.ms) / median(r.stats[0].ms)),
                  format_number(median(s.cpu_ms) / median(r.stats[1].cpu_ms)),
+                 sprt ? format_number(median(s.cpu_ms) / median(sprt->cpu_ms)) : "-",
                  std::to_string(r.stats[0].successes) + "/" + std::to_string(r.stats[0].runs()) + " vs " +
-                     std::to_string(s.successes) + "/" + std::to_string(s.runs())});
+                     std::to_string(s.successes) + "/" + std::to_string(s.runs()),
+                 sprt ? std::to_string(sprt->successes) + "/" + std::to_string(sprt->runs()) : "-"});
     }
   }
   std::cout << "\n### Ratios\n\n";
