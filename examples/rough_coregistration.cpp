@@ -34,7 +34,7 @@ const char* kUsage =
     "usage: rough_coregistration MASTER_DSM.tif SECONDARY_DSM.tif --out DIR [options]\n"
     "  --matcher sift|rootsift|akaze|xfeat   pair matcher (default sift)\n"
     "  --model PATH                          XFeat ONNX file (with --matcher xfeat)\n"
-    "  --image relief|slope|stretch|wallis|hillshade|multihillshade   DSM image (default relief)\n"
+    "  --image relief|slope|stretch|wallis|hillshade|multihillshade   DSM image (default slope)\n"
     "  --k-sigma K                           stretch range for stretch/wallis (default 2, the paper)\n"
     "  --tile WxH                            tile size in DSM pixels (default 640x480)\n"
     "  --no-tiling                           match the whole DSM images\n"

@@ -64,8 +64,10 @@ inline const char* to_string(DsmImageKind kind) {
 /// Options of rough_coregistration(). Defaults: the paper's, except where a measurement in
 /// docs/rough-coregistration.md chose otherwise (each field says which).
 struct RoughCoregistrationOptions {
-  /// DSM image variant. Stretch + Wallis is the paper's and MicMac's choice.
-  DsmImageKind image_kind = DsmImageKind::kStretchWallis;
+  /// DSM image variant. Slope by measurement (docs/rough-coregistration.md): on real DEMs moved into
+  /// arbitrary frames it succeeded where the paper's stretch (k = 2) and MicMac's stretch + Wallis
+  /// mostly failed; kStretchWallis reproduces the paper.
+  DsmImageKind image_kind = DsmImageKind::kSlope;
   /// The stretch: k = 2 in the paper ("values beyond 2 sigma are ignored"), 5 in MicMac today.
   DsmImageOptions dsm_image{};
   WallisOptions wallis{};

@@ -1,0 +1,23 @@
+// An outside project: find_package(diachron), link diachron::core, estimate a Helmert robustly.
+#include <cstdio>
+#include <vector>
+
+#include <diachron/diachron.hpp>
+
+int main() {
+  diachron::RandomStream rng(7);
+  const diachron::Helmert3 truth{0.5, diachron::random_rotation(rng), {500000.0, 5000000.0, 100.0}};
+  std::vector<diachron::PointPair3> pairs;
+  for (int i = 0; i < 200; ++i) {
+    const Eigen::Vector3d x(rng.uniform(0, 1000), rng.uniform(0, 1000), rng.uniform(0, 100));
+    Eigen::Vector3d y = truth(x);
+    if (i % 4 == 0) y += Eigen::Vector3d(rng.uniform(-50, 50), rng.uniform(-50, 50), rng.uniform(-50, 50));
+    pairs.push_back({x, y});
+  }
+  diachron::RansacOptions options;
+  options.threshold = 0.05;
+  const auto report = diachron::ransac_helmert3(pairs, options);
+  const double error = (report.model.translation - truth.translation).norm();
+  std::printf("success %d, %zu inliers, translation error %.2e\n", report.success, report.inliers.size(), error);
+  return report.success && report.inliers.size() >= 150 && error < 1e-6 ? 0 : 1;
+}
