@@ -11,8 +11,9 @@
 // A configuration is IMAGE/MATCHER/TILING/ROTATIONS, e.g. relief/sift/tiles/rot:
 //   IMAGE     stretch2 stretch5 wallis2 wallis5 hillshade multihillshade slope relief
 //   MATCHER   sift rootsift akaze xfeat
-//   TILING    tiles (640 x 480, no buffer) | whole
-//   ROTATIONS rot (0/90/180/270) | norot
+//   TILING    tiles (640 x 480, no buffer, the paper's) | whole
+//   ROTATIONS rot (0/90/180/270, always) | norot
+// or default/MATCHER/default/default: RoughCoregistrationOptions{} as shipped.
 // The paper's plain SIFT baseline is stretch2/sift/whole/norot. Prints a Markdown table.
 
 #include <algorithm>
@@ -83,6 +84,7 @@ Config parse_config(const std::string& text) {
   Config c{text, {}, parts[1]};
   const std::string& image = parts[0];
   auto& o = c.options;
+  if (image == "default") return c;
   if (image == "stretch2" || image == "stretch5") {
     o.image_kind = DsmImageKind::kStretch;
     o.dsm_image.k_sigma = image == "stretch2" ? 2.0 : 5.0;
@@ -105,7 +107,9 @@ Config parse_config(const std::string& text) {
   DIACHRON_CHECK(parts[2] == "tiles" || parts[2] == "whole", "TILING must be tiles or whole");
   DIACHRON_CHECK(parts[3] == "rot" || parts[3] == "norot", "ROTATIONS must be rot or norot");
   o.use_tiling = parts[2] == "tiles";
+  o.master_tiles = o.secondary_tiles = GridTilerOptions{640, 480, 0, 0};
   o.rotation_hypotheses = parts[3] == "rot";
+  o.skip_rotations_if_invariant = false;
   return c;
 }
 

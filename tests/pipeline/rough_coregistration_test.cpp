@@ -1,5 +1,6 @@
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
 
 #include <diachron/eval/coregistration_case.hpp>
@@ -51,8 +52,42 @@ TEST_CASE("rough_coregistration: recovers a known Helmert between two frames of 
     const auto err = diachron::helmert_error_on_overlap(report.epoch2_from_epoch1, c);
     REQUIRE(err.valid);
     REQUIRE(err.rms < 2.0 * c.secondary.min_cell_size());
-    REQUIRE(report.hypotheses.size() == 4);
+    // SIFT says it is rotation invariant, so the default tries one hypothesis only.
+    REQUIRE(report.hypotheses.size() == 1);
   }
+}
+
+TEST_CASE("rough_coregistration: with rotation hypotheses forced, all four are reported", "[pipeline]") {
+  const diachron::Dsm world = synthetic_world();
+  diachron::CoregistrationCaseOptions case_options;
+  case_options.overlap_min = case_options.overlap_max = 0.7;
+  const auto c = diachron::make_coregistration_case(world, world, case_options, 3);
+  diachron::RoughCoregistrationOptions options;
+  options.skip_rotations_if_invariant = false;
+  options.image_kind = diachron::DsmImageKind::kLocalRelief;
+  const auto report = diachron::rough_coregistration(c.master, c.secondary, sift_matcher(), options);
+  INFO(report.message);
+  REQUIRE(report.success);
+  REQUIRE(report.hypotheses.size() == 4);
+  std::size_t best = 0;
+  for (const auto& h : report.hypotheses) best = std::max(best, h.inliers);
+  REQUIRE(report.inliers_2d.size() == best);
+  REQUIRE(diachron::helmert_error_on_overlap(report.epoch2_from_epoch1, c).rms < 2.0 * c.secondary.min_cell_size());
+}
+
+TEST_CASE("rough_coregistration_images: the orthophoto mode lifts with the DSMs", "[pipeline]") {
+  // Orthophotos are stand-ins here: the relief image on the DSM grid, as GeoImages.
+  const diachron::Dsm world = synthetic_world();
+  diachron::CoregistrationCaseOptions case_options;
+  case_options.overlap_min = case_options.overlap_max = 0.7;
+  const auto c = diachron::make_coregistration_case(world, world, case_options, 5);
+  diachron::RoughCoregistrationOptions options;
+  const diachron::GeoImage m{diachron::local_relief_image(c.master), c.master.transform()};
+  const diachron::GeoImage s{diachron::local_relief_image(c.secondary), c.secondary.transform()};
+  const auto report = diachron::rough_coregistration_images(m, c.master, s, c.secondary, sift_matcher(), options);
+  INFO(report.message);
+  REQUIRE(report.success);
+  REQUIRE(diachron::helmert_error_on_overlap(report.epoch2_from_epoch1, c).rms < 2.0 * c.secondary.min_cell_size());
 }
 
 TEST_CASE("rough_coregistration: no overlap gives success == false with the reason", "[pipeline]") {

@@ -75,6 +75,8 @@ class AkazeExtractor {
 
   const AkazeOptions& options() const { return options_; }
   static constexpr DescriptorMetric descriptor_metric() { return DescriptorMetric::Hamming; }
+  /// Oriented MLDB descriptors do not change when the image turns; upright ones do.
+  bool rotation_invariant() const { return !options_.upright; }
 
   /// Keypoints and descriptors of `image`. An empty raster throws diachron::Error; an image
   /// without texture gives empty Features.

@@ -76,6 +76,9 @@ class SiftExtractor {
 
   const SiftOptions& options() const { return options_; }
   static constexpr DescriptorMetric descriptor_metric() { return DescriptorMetric::L2; }
+  /// SIFT descriptors are computed in the keypoint's orientation: turning the image does not change
+  /// them, so rotation hypotheses add nothing (pipeline/rough_coregistration.hpp asks this).
+  static constexpr bool rotation_invariant() { return true; }
 
   /// Keypoints and descriptors of `image`. An empty raster throws diachron::Error; an image
   /// without texture gives empty Features.
