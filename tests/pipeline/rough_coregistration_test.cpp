@@ -76,14 +76,14 @@ TEST_CASE("rough_coregistration: with rotation hypotheses forced, all four are r
 }
 
 TEST_CASE("rough_coregistration_images: the orthophoto mode lifts with the DSMs", "[pipeline]") {
-  // Orthophotos are stand-ins here: the relief image on the DSM grid, as GeoImages.
+  // Orthophotos are stand-ins here: the slope image on the DSM grid, as GeoImages.
   const diachron::Dsm world = synthetic_world();
   diachron::CoregistrationCaseOptions case_options;
   case_options.overlap_min = case_options.overlap_max = 0.7;
   const auto c = diachron::make_coregistration_case(world, world, case_options, 5);
   diachron::RoughCoregistrationOptions options;
-  const diachron::GeoImage m{diachron::local_relief_image(c.master), c.master.transform()};
-  const diachron::GeoImage s{diachron::local_relief_image(c.secondary), c.secondary.transform()};
+  const diachron::GeoImage m{diachron::slope_image(c.master), c.master.transform()};
+  const diachron::GeoImage s{diachron::slope_image(c.secondary), c.secondary.transform()};
   const auto report = diachron::rough_coregistration_images(m, c.master, s, c.secondary, sift_matcher(), options);
   INFO(report.message);
   REQUIRE(report.success);
