@@ -4,6 +4,9 @@
 // (eval/coregistration_case.hpp), runs one configuration, and checks the recovered Helmert against
 // the truth. Success: RMS Helmert error below 2 secondary DSM cells over the overlap.
 //
+// With --synthetic, the cases are instead synthetic two-epoch scenes (synth/): each epoch's DSM as
+// an SfM delivers it (own frame, noise, holes, changed buildings), truth epoch2_from_epoch1.
+//
 //   rough_coregistration_eval [--data DIR] [--models DIR] [--cases N] [--overlap MIN MAX]
 //                             [--configs C1,C2,...] [--threads N] [--seed S] [--max-features N]
 //                             [--verbose]
@@ -29,6 +32,7 @@
 #include <diachron/eval/coregistration_case.hpp>
 #include <diachron/io/geotiff.hpp>
 #include <diachron/pipeline/rough_coregistration.hpp>
+#include <diachron/synth/scene.hpp>
 #include <diachron/vision/extractor_pair_matcher.hpp>
 #include <diachron/vision/akaze.hpp>
 #include <diachron/vision/sift.hpp>
@@ -134,7 +138,7 @@ int main(int argc, char** argv) {
   int max_features = 2000;
   double overlap_min = 0.3, overlap_max = 1.0;
   std::uint64_t seed = 1;
-  bool verbose = false;
+  bool verbose = false, synthetic = false;
   std::string configs_text = "stretch2/sift/whole/norot,relief/sift/tiles/rot";
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -154,6 +158,7 @@ int main(int argc, char** argv) {
     else if (a == "--seed") seed = std::stoull(next());
     else if (a == "--max-features") max_features = std::stoi(next());
     else if (a == "--verbose") verbose = true;
+    else if (a == "--synthetic") synthetic = true;
     else {
       std::cerr << "usage: rough_coregistration_eval [--data DIR] [--models DIR] [--cases N] [--overlap MIN MAX]\n"
                    "       [--configs IMAGE/MATCHER/TILING/ROTATIONS,...] [--threads N] [--seed S] [--verbose]\n";
@@ -161,7 +166,7 @@ int main(int argc, char** argv) {
     }
   }
   try {
-    const std::vector<Source> sources = load_sources(data);
+    const std::vector<Source> sources = synthetic ? std::vector<Source>{} : load_sources(data);
     std::vector<Config> configs;
     std::stringstream ss(configs_text);
     for (std::string c; std::getline(ss, c, ',');) configs.push_back(parse_config(c));
@@ -190,9 +195,24 @@ int main(int argc, char** argv) {
     std::map<std::string, std::vector<Outcome>> results;
     std::map<std::string, std::map<std::string, std::pair<int, int>>> per_source;
     for (std::size_t k = 0; k < cases; ++k) {
-      const Source& src = sources[k % sources.size()];
-      case_options.crop_windows = src.crop;
-      const CoregistrationCase c = make_coregistration_case(src.master, src.secondary, case_options, seed + k);
+      CoregistrationCase c;
+      std::string source_name = "synthetic";
+      if (synthetic) {
+        SceneOptions scene_options;
+        scene_options.seed = seed + k;
+        scene_options.check_points = 0;
+        const Scene scene = generate_scene(scene_options);
+        c.master = scene.epochs[0].dsm;
+        c.secondary = scene.epochs[1].dsm;
+        c.secondary_from_master = scene.epoch2_from_epoch1();
+        c.scale = c.secondary_from_master.scale;
+        c.rotation_deg = rad_to_deg(std::atan2(c.secondary_from_master.rotation(1, 0), c.secondary_from_master.rotation(0, 0)));
+      } else {
+        const Source& src = sources[k % sources.size()];
+        source_name = src.name;
+        case_options.crop_windows = src.crop;
+        c = make_coregistration_case(src.master, src.secondary, case_options, seed + k);
+      }
       const double cell = c.secondary.min_cell_size();
       for (auto& config : configs) {
         config.options.threads = threads;
@@ -211,12 +231,12 @@ int main(int argc, char** argv) {
         o.error_cells = e.valid ? e.rms / cell : std::numeric_limits<double>::infinity();
         o.success = r.success && e.valid && e.rms < 2.0 * cell;
         results[config.name].push_back(o);
-        auto& ps = per_source[config.name][src.name];
+        auto& ps = per_source[config.name][source_name];
         ps.first += o.success;
         ps.second += 1;
         if (verbose)
           std::fprintf(stderr, "case %zu %-13s overlap %.2f rot %6.1f scale %.2f | %-32s %s err %8.2f cells, %4zu/%5zu in %.1f s | %s\n",
-                       k, src.name.c_str(), c.overlap, c.rotation_deg, c.scale, config.name.c_str(),
+                       k, source_name.c_str(), c.overlap, c.rotation_deg, c.scale, config.name.c_str(),
                        o.success ? "OK  " : "FAIL", o.error_cells, o.inliers, o.matches, o.seconds, r.message.c_str());
       }
     }
