@@ -19,33 +19,13 @@
 #include <diachron/vision/extractor_pair_matcher.hpp>
 #include <diachron/vision/image.hpp>
 
+#include "support/textures.hpp"
+
 namespace {
 
 using diachron::Raster;
 
-// Smoothed noise at two scales plus random blobs: corners and blobs at many scales, no repetition.
-Raster<std::uint8_t> textured(int w, int h, std::uint64_t seed) {
-  diachron::RandomStream rng(seed);
-  cv::Mat img(h, w, CV_32F, cv::Scalar(0));
-  for (int cell : {40, 10}) {
-    cv::Mat coarse(h / cell + 3, w / cell + 3, CV_32F);
-    for (int y = 0; y < coarse.rows; ++y)
-      for (int x = 0; x < coarse.cols; ++x) coarse.at<float>(y, x) = static_cast<float>(rng.uniform(-1, 1));
-    cv::Mat fine;
-    cv::resize(coarse, fine, cv::Size(coarse.cols * cell, coarse.rows * cell), 0, 0, cv::INTER_CUBIC);
-    img += fine(cv::Rect(cell, cell, w, h)) * (cell == 40 ? 1.0 : 0.5);
-  }
-  for (int i = 0; i < w * h / 800; ++i) {
-    const cv::Point centre(static_cast<int>(rng.uniform(0, w)), static_cast<int>(rng.uniform(0, h)));
-    cv::circle(img, centre, static_cast<int>(rng.uniform(2, 12)), cv::Scalar(rng.uniform(-1.5, 1.5)), cv::FILLED,
-               cv::LINE_AA);
-  }
-  cv::GaussianBlur(img, img, cv::Size(0, 0), 1.0);
-  cv::Mat out;
-  cv::normalize(img, img, 0, 255, cv::NORM_MINMAX);
-  img.convertTo(out, CV_8U);
-  return diachron::to_raster<std::uint8_t>(out);
-}
+using diachron::test::textured;
 
 Raster<std::uint8_t> warp(const Raster<std::uint8_t>& src, const cv::Matx23d& m) {
   cv::Mat dst;
