@@ -3,12 +3,14 @@
 // two scales plus random blobs, so corners and blobs exist at many scales without repetition.
 
 #include <cstdint>
+#include <vector>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include <diachron/core/random.hpp>
 #include <diachron/core/raster.hpp>
+#include <diachron/matching/point_match.hpp>
 #include <diachron/vision/image.hpp>
 
 namespace diachron::test {
@@ -35,6 +37,28 @@ inline diachron::Raster<std::uint8_t> textured(int w, int h, std::uint64_t seed)
   cv::normalize(img, img, 0, 255, cv::NORM_MINMAX);
   img.convertTo(out, CV_8U);
   return diachron::to_raster<std::uint8_t>(out);
+}
+
+/// `src` warped by the 2x3 affine `m` (cv::warpAffine maps source pixel centres to destination pixel
+/// centres, diachron's convention), so `m` is the truth for b given a.
+inline diachron::Raster<std::uint8_t> warp(const diachron::Raster<std::uint8_t>& src, const cv::Matx23d& m) {
+  cv::Mat dst;
+  cv::warpAffine(diachron::as_mat(src), dst, m, cv::Size(src.width(), src.height()), cv::INTER_CUBIC,
+                 cv::BORDER_REFLECT_101);
+  return diachron::to_raster<std::uint8_t>(dst);
+}
+
+inline Eigen::Vector2d apply(const cv::Matx23d& m, const Eigen::Vector2d& p) {
+  return {m(0, 0) * p.x() + m(0, 1) * p.y() + m(0, 2), m(1, 0) * p.x() + m(1, 1) * p.y() + m(1, 2)};
+}
+
+/// Share of matches whose b lies within `tol` px of m(a).
+inline double fraction_within(const std::vector<diachron::PointMatch>& matches, const cv::Matx23d& m, double tol) {
+  if (matches.empty()) return 0.0;
+  std::size_t good = 0;
+  for (const auto& match : matches)
+    if ((apply(m, match.a) - match.b).norm() <= tol) ++good;
+  return static_cast<double>(good) / static_cast<double>(matches.size());
 }
 
 }  // namespace diachron::test

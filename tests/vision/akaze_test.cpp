@@ -19,41 +19,22 @@
 #include <diachron/vision/extractor_pair_matcher.hpp>
 #include <diachron/vision/image.hpp>
 
+#include <diachron/geometry/rotation.hpp>
+
 #include "support/textures.hpp"
 
 namespace {
 
 using diachron::Raster;
 
+using diachron::test::apply;
+using diachron::test::fraction_within;
 using diachron::test::textured;
+using diachron::test::warp;
 
-Raster<std::uint8_t> warp(const Raster<std::uint8_t>& src, const cv::Matx23d& m) {
-  cv::Mat dst;
-  cv::warpAffine(diachron::as_mat(src), dst, m, cv::Size(src.width(), src.height()), cv::INTER_CUBIC,
-                 cv::BORDER_REFLECT_101);
-  return diachron::to_raster<std::uint8_t>(dst);
-}
 
-// cv::warpAffine's matrix maps source pixel centres to destination pixel centres, in the same
-// convention as diachron, so it is the truth for b given a.
-diachron::Vec2 apply(const cv::Matx23d& m, const diachron::Vec2& p) {
-  return {m(0, 0) * p.x() + m(0, 1) * p.y() + m(0, 2), m(1, 0) * p.x() + m(1, 1) * p.y() + m(1, 2)};
-}
 
-double fraction_within(const std::vector<diachron::PointMatch>& matches, const cv::Matx23d& m, double tol) {
-  if (matches.empty()) return 0.0;
-  std::size_t good = 0;
-  for (const auto& match : matches)
-    if ((apply(m, match.a) - match.b).norm() <= tol) ++good;
-  return static_cast<double>(good) / static_cast<double>(matches.size());
-}
 
-double wrap_pi(double a) {
-  a = std::fmod(a, 2.0 * diachron::kPi);
-  if (a > diachron::kPi) a -= 2.0 * diachron::kPi;
-  if (a < -diachron::kPi) a += 2.0 * diachron::kPi;
-  return a;
-}
 
 }  // namespace
 
@@ -157,7 +138,7 @@ TEST_CASE("AkazeExtractor: keypoint angles turn by +pi/2 when the image turns 90
     const auto& kb = fb.keypoints[m.b];
     if ((apply(truth, ka.position) - kb.position).norm() > 1.0) continue;
     ++located;
-    const double error = wrap_pi(kb.angle - ka.angle - diachron::kPi / 2);
+    const double error = diachron::wrap_angle(kb.angle - ka.angle - diachron::kPi / 2);
     // AKAZE picks its orientation from 60-degree sectors: less precise than SIFT's histogram peak.
     if (std::abs(error) < diachron::deg_to_rad(15.0)) {
       ++turned;

@@ -30,7 +30,10 @@ namespace {
 
 using diachron::Raster;
 
+using diachron::test::apply;
+using diachron::test::fraction_within;
 using diachron::test::textured;
+using diachron::test::warp;
 
 // Overlapping flat rectangles, lightly blurred: sharp corners, like buildings in a DSM image.
 Raster<std::uint8_t> rectangles(int w, int h, std::uint64_t seed) {
@@ -45,26 +48,8 @@ Raster<std::uint8_t> rectangles(int w, int h, std::uint64_t seed) {
   return diachron::to_raster<std::uint8_t>(img);
 }
 
-Raster<std::uint8_t> warp(const Raster<std::uint8_t>& src, const cv::Matx23d& m) {
-  cv::Mat dst;
-  cv::warpAffine(diachron::as_mat(src), dst, m, cv::Size(src.width(), src.height()), cv::INTER_CUBIC,
-                 cv::BORDER_REFLECT_101);
-  return diachron::to_raster<std::uint8_t>(dst);
-}
 
-// cv::warpAffine's matrix maps source pixel centres to destination pixel centres, in the same
-// convention as diachron, so it is the truth for b given a.
-diachron::Vec2 apply(const cv::Matx23d& m, const diachron::Vec2& p) {
-  return {m(0, 0) * p.x() + m(0, 1) * p.y() + m(0, 2), m(1, 0) * p.x() + m(1, 1) * p.y() + m(1, 2)};
-}
 
-double fraction_within(const std::vector<diachron::PointMatch>& matches, const cv::Matx23d& m, double tol) {
-  if (matches.empty()) return 0.0;
-  std::size_t good = 0;
-  for (const auto& match : matches)
-    if ((apply(m, match.a) - match.b).norm() <= tol) ++good;
-  return static_cast<double>(good) / static_cast<double>(matches.size());
-}
 
 std::filesystem::path fresh_temp_dir(const std::string& name) {
   const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("diachron_vision_" + name);
