@@ -294,8 +294,8 @@ RoughCoregistrationReport rough_coregistration_images(const GeoImage& master, co
   const auto start = std::chrono::steady_clock::now();
   RoughCoregistrationReport report;
 
-  // Stage 1: tentative matches under each rotation hypothesis, and a 2D similarity RANSAC on each.
-  auto t0 = std::chrono::steady_clock::now();
+  // Stage 1: tentative matches under each rotation hypothesis, and a 2D similarity RANSAC on each
+  // (timed by match_with_rotation_hypotheses itself).
   const GridTilerOptions whole_m{master.image.width(), master.image.height(), 0, 0};
   const GridTilerOptions whole_s{std::max(secondary.image.width(), secondary.image.height()),
                                  std::max(secondary.image.width(), secondary.image.height()), 0, 0};
@@ -346,7 +346,6 @@ RoughCoregistrationReport rough_coregistration_images(const GeoImage& master, co
   report.seconds.matching = hyp.seconds_matching;
   report.seconds.ransac_2d = hyp.seconds_ransac;
   report.hypotheses = hyp.hypotheses;
-  (void)t0;
 
   if (!hyp.success) {
     report.message = "no 2D similarity found between the DSM images (the DSMs probably do not overlap, or "
@@ -382,7 +381,7 @@ RoughCoregistrationReport rough_coregistration_images(const GeoImage& master, co
   }
 
   // Stage 3: lift the 2D inliers to 3D through both DSMs.
-  t0 = std::chrono::steady_clock::now();
+  auto t0 = std::chrono::steady_clock::now();
   for (const PointMatch& m : report.inliers_2d) {
     const Eigen::Vector3d x1 = detail::lift_pixel(master, master_dsm, m.a);
     const Eigen::Vector3d x2 = detail::lift_pixel(secondary, secondary_dsm, m.b);
