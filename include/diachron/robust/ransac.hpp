@@ -364,41 +364,42 @@ typename Ransac<E, Sa, Sc, T, L>::Report Ransac<E, Sa, Sc, T, L>::run(const Datu
     return report;
   }
 
+  // The final model: one unweighted refit on all inliers of the best model (when the estimator can
+  // refine), kept when its own final pass has at least as many inliers or a higher score. That pass
+  // is also the report's, so the refit costs an inlier pass, one least-squares fit and nothing more.
   std::vector<std::size_t> inliers;
+  double score = 0.0;
+  double sum_squares = 0.0;
+  bool final_pass_done = false;
   if constexpr (estimator_has_refine_v<E>) {
     if (options_.final_refit) {
-      // Up to three unweighted refits, each on the inliers of the previous one (local
-      // optimisation ran on a subset, so the first refit may still change the inlier set).
-      Model candidate = best_model;
-      bool have_candidate = false;
-      Support candidate_support;
-      for (int round = 0; round < 3; ++round) {
-        const std::size_t previous = inliers.size();
-        problem.inliers(candidate, inliers, nullptr, report.residual_evaluations);
-        if (inliers.size() < kSampleSize) break;
-        if (have_candidate && inliers.size() == previous) break;
+      problem.inliers(best_model, inliers, nullptr, report.residual_evaluations);
+      if (inliers.size() >= kSampleSize) {
         const Subset<Datum> subset(data, inliers.data(), inliers.size());
-        const auto refined = estimator_.refine(candidate, subset, nullptr);
-        if (!refined) break;
-        candidate = *refined;
-        candidate_support = problem.score(candidate, -std::numeric_limits<double>::infinity(),
-                                          report.residual_evaluations);
-        have_candidate = true;
-      }
-      if (have_candidate && (candidate_support.num_inliers >= best.num_inliers ||
-                             candidate_support.score > best.score)) {
-        best_model = candidate;
-        best = candidate_support;
-        report.final_refit = true;
+        const auto refined = estimator_.refine(best_model, subset, nullptr);
+        if (refined) {
+          std::vector<char> mask;
+          std::vector<std::size_t> refined_inliers;
+          double refined_score = 0.0, refined_squares = 0.0;
+          problem.final_pass(*refined, mask, refined_inliers, refined_score, refined_squares);
+          report.residual_evaluations += size;
+          if (refined_inliers.size() >= best.num_inliers || refined_score > best.score) {
+            best_model = *refined;
+            report.inlier_mask = std::move(mask);
+            inliers = std::move(refined_inliers);
+            score = refined_score;
+            sum_squares = refined_squares;
+            report.final_refit = true;
+            final_pass_done = true;
+          }
+        }
       }
     }
   }
-
-  // One pass for mask, indices, score and rms of the final model.
-  double score = 0.0;
-  double sum_squares = 0.0;
-  problem.final_pass(best_model, report.inlier_mask, inliers, score, sum_squares);
-  report.residual_evaluations += size;
+  if (!final_pass_done) {
+    problem.final_pass(best_model, report.inlier_mask, inliers, score, sum_squares);
+    report.residual_evaluations += size;
+  }
 
   const std::size_t min_inliers =
       options_.min_inliers == 0 ? kSampleSize + 1 : options_.min_inliers;
