@@ -66,9 +66,8 @@ struct local_optimization_takes_stream<
 /// model of the sample, and the best of them becomes the best model when its score is strictly
 /// higher; then local optimisation runs on it, and the Termination policy decides whether to stop.
 /// Finally the best model is refit on all its inliers (options.final_refit, estimators with
-/// `refine` only; up to three unweighted refits, each on the previous one's inliers, until the
-/// inlier count stops changing), the refit kept when it has at least as many inliers or a higher
-/// score, and inliers are computed once.
+/// `refine` only; one unweighted least-squares fit), the refit kept when it has at least as many
+/// inliers or a higher score; its final pass gives the report's inliers, mask, score and rms.
 ///
 /// Determinism. Hypotheses are processed in batches (of 1, 2, 4, ... then 64 iterations; a fixed
 /// schedule). Within a batch they are generated and scored independently, on options.threads

@@ -55,7 +55,8 @@ struct RansacOptions {
   std::size_t max_sample_attempts = 100;
 
   /// After the main loop, refit the best model on all its inliers with Estimator::refine (when the
-  /// estimator has one) and keep the refit unless it loses inliers.
+  /// estimator has one, one unweighted fit) and keep the refit when it has at least as many inliers
+  /// or a higher score.
   bool final_refit = true;
 
   /// Reject hypotheses early with the sequential probability ratio test of randomized RANSAC
