@@ -214,22 +214,6 @@ RoughCoregistrationReport rough_coregistration(const Dsm& master, const Dsm& sec
 
 namespace detail {
 
-template <class M, class = void>
-struct has_rotation_invariant : std::false_type {};
-template <class M>
-struct has_rotation_invariant<M, std::void_t<decltype(bool(std::declval<const M&>().rotation_invariant()))>>
-    : std::true_type {};
-
-/// What the matcher says of itself; false when it says nothing.
-template <class M>
-bool rotation_invariant(const M& matcher) {
-  if constexpr (has_rotation_invariant<M>::value) {
-    return matcher.rotation_invariant();
-  } else {
-    return false;
-  }
-}
-
 inline double seconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
@@ -339,7 +323,7 @@ RoughCoregistrationReport rough_coregistration_images(const GeoImage& master, co
   };
   RotationHypothesesOptions hypotheses_options;
   hypotheses_options.ransac = options.ransac_2d;
-  if (!options.rotation_hypotheses || (options.skip_rotations_if_invariant && detail::rotation_invariant(matcher)))
+  if (!options.rotation_hypotheses || (options.skip_rotations_if_invariant && rotation_invariant(matcher)))
     hypotheses_options.rotations_deg = {0};
   RotationHypothesesReport hyp =
       match_with_rotation_hypotheses(master.image, secondary.image, match_fn, hypotheses_options);

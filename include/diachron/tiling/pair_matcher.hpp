@@ -71,6 +71,12 @@ template <class E>
 struct has_any_extract<E, std::void_t<decltype(std::declval<E&>().extract(std::declval<const Image8&>()))>>
     : std::true_type {};
 
+template <class M, class = void>
+struct has_rotation_invariant : std::false_type {};
+template <class M>
+struct has_rotation_invariant<M, std::void_t<decltype(bool(std::declval<const M&>().rotation_invariant()))>>
+    : std::true_type {};
+
 }  // namespace detail
 
 /// True when M meets the PairMatcher requirements.
@@ -129,6 +135,18 @@ class FunctionPairMatcher {
 template <class Fn>
 FunctionPairMatcher<std::decay_t<Fn>> make_pair_matcher(Fn&& fn) {
   return FunctionPairMatcher<std::decay_t<Fn>>(std::forward<Fn>(fn));
+}
+
+/// What a matcher or extractor says of itself through an optional `bool rotation_invariant() const`
+/// (its features do not change when the image turns); false when it says nothing. Pipelines use it
+/// to skip rotation hypotheses.
+template <class M>
+bool rotation_invariant(const M& matcher) {
+  if constexpr (detail::has_rotation_invariant<M>::value) {
+    return matcher.rotation_invariant();
+  } else {
+    return false;
+  }
 }
 
 }  // namespace diachron

@@ -19,6 +19,7 @@
 #include <diachron/core/raster.hpp>
 #include <diachron/matching/features.hpp>
 #include <diachron/matching/point_match.hpp>
+#include <diachron/tiling/pair_matcher.hpp>
 #include <diachron/vision/cv_features.hpp>
 
 namespace diachron {
@@ -104,12 +105,6 @@ struct HasDescriptorMetric<E, std::void_t<decltype(std::declval<const E&>().desc
     : std::true_type {};
 
 template <class E, class = void>
-struct HasRotationInvariant : std::false_type {};
-template <class E>
-struct HasRotationInvariant<E, std::void_t<decltype(bool(std::declval<const E&>().rotation_invariant()))>>
-    : std::true_type {};
-
-template <class E, class = void>
 struct HasExtract : std::false_type {};
 template <class E>
 struct HasExtract<E, std::void_t<decltype(std::declval<const E&>().extract(
@@ -142,13 +137,7 @@ class ExtractorPairMatcher {
   const Extractor& extractor() const { return extractor_; }
   /// Whether the extractor says its features do not change when the image turns (false when it
   /// does not say). Lets a pipeline skip rotation hypotheses.
-  bool rotation_invariant() const {
-    if constexpr (detail::HasRotationInvariant<Extractor>::value) {
-      return extractor_.rotation_invariant();
-    } else {
-      return false;
-    }
-  }
+  bool rotation_invariant() const { return diachron::rotation_invariant(extractor_); }
   const ExtractorMatchOptions& options() const { return options_; }
 
   /// The metric descriptors are compared with (see the class comment).
