@@ -153,6 +153,34 @@ TEST_CASE("Procrustes: UTM-sized coordinates give sub-micrometre residuals", "[g
   CHECK(worst < 1e-6);
 }
 
+TEST_CASE("Procrustes: a tight cluster plus a far point, at UTM coordinates, stays exact",
+          "[geometry]") {
+  // The one-pass sums are taken about a point near the centroid; the worst case for such sums is a
+  // spread dominated by one far point, where "mean of products minus product of means" cancels
+  // most. Exact data must still fit to well below a micrometre.
+  diachron::RandomStream random(21);
+  const Eigen::Vector3d utm(5e5, 5e6, 1e3);
+  const Helmert3 rotated = Helmert3::from_axis_angle(1.0002, Eigen::Vector3d(0.1, -0.2, 0.9),
+                                                     Eigen::Vector3d::Zero());
+  const Helmert3 truth{rotated.scale, rotated.rotation,
+                       utm - rotated.scale * (rotated.rotation * utm) + Eigen::Vector3d(4, -2, 1)};
+  for (std::size_t n : {50u, 2000u}) {
+    std::vector<PointPair3> pairs;
+    for (std::size_t i = 0; i < n; ++i) {
+      const Eigen::Vector3d x =
+          utm + Eigen::Vector3d(random.uniform(-0.5, 0.5), random.uniform(-0.5, 0.5),
+                                random.uniform(-0.5, 0.5));
+      pairs.push_back({x, truth(x)});
+    }
+    const Eigen::Vector3d far = utm + Eigen::Vector3d(20000.0, -15000.0, 300.0);
+    pairs.push_back({far, truth(far)});
+    const std::optional<Helmert3> fit = diachron::fit_helmert3(pairs);
+    REQUIRE(fit);
+    INFO("n " << n << " max residual " << max_residual(pairs, *fit));
+    CHECK(max_residual(pairs, *fit) < 1e-6);
+  }
+}
+
 TEST_CASE(
     "Procrustes: equal weights reproduce the unweighted fit, integer weights duplicate points",
     "[geometry]") {

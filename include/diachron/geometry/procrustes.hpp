@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <cstddef>
+#include <limits>
 #include <optional>
 
 #include <Eigen/Core>
@@ -44,8 +45,9 @@ inline constexpr double kProcrustesRankTolerance = 1e-14;
 /// Weighted least-squares similarity between corresponding points, minimising
 /// sum_i w_i |target_i - (s R source_i + t)|^2 over proper rotations R (and s when estimated).
 ///
-/// Algorithm: weighted centroids (after subtracting one data point, so UTM or ECEF coordinates of
-/// 5e6 m keep their precision), centred cross-covariance Sigma = sum w y_c x_c^T / W, then in 3D
+/// Algorithm: one pass of weighted sums after subtracting a point near the centroid (so UTM or ECEF
+/// coordinates of 5e6 m keep their precision), centred cross-covariance
+/// Sigma = sum w y_c x_c^T / W from them, then in 3D
 /// Sigma = U D V^T and R = U S V^T with S = diag(1, 1, sign(det U det V)) (Umeyama's reflection
 /// fix); in 2D the optimal angle atan2(Sigma10 - Sigma01, Sigma00 + Sigma11) in closed form.
 ///
@@ -91,52 +93,77 @@ std::optional<SimilarityFit<D>> fit_similarity(const Pairs& pairs, const double*
     }
   }
 
-  // Reference point: the first weighted pair. Subtracting it first keeps every later sum in the
-  // range of the data's extent rather than of its absolute coordinates.
-  std::size_t first = n;
-  for (std::size_t i = 0; i < n; ++i) {
-    if (weight(i) > 0.0) {
-      first = i;
-      break;
+  // One pass of shifted sums. Subtracting a point near the centroid (the mean of up to 256 pairs
+  // spread over the set) keeps every sum in the range of the data's extent rather than of its
+  // absolute coordinates (UTM, ECEF), and keeps the cancellation in "mean of products minus product
+  // of means" to a digit or so; a second pass over the data for exact centring would cost as much
+  // again, and in RANSAC's final refit over all inliers the data are the bottleneck.
+  constexpr std::size_t kShiftSamples = 256;
+  const std::size_t stride = n > kShiftSamples ? n / kShiftSamples : 1;
+  VecD source_ref = VecD::Zero();
+  VecD target_ref = VecD::Zero();
+  std::size_t shift_count = 0;
+  for (std::size_t i = 0; i < n; i += stride) {
+    if (weight(i) > 0.0 && VecD(pairs[i].source).allFinite() && VecD(pairs[i].target).allFinite()) {
+      source_ref += VecD(pairs[i].source);
+      target_ref += VecD(pairs[i].target);
+      ++shift_count;
     }
   }
-  if (first == n) return std::nullopt;
-  const VecD source_ref = pairs[first].source;
-  const VecD target_ref = pairs[first].target;
+  if (shift_count == 0) {  // every strided pair unweighted or not finite: take the first usable
+    for (std::size_t i = 0; i < n && shift_count == 0; ++i) {
+      if (weight(i) > 0.0 && VecD(pairs[i].source).allFinite() &&
+          VecD(pairs[i].target).allFinite()) {
+        source_ref = pairs[i].source;
+        target_ref = pairs[i].target;
+        shift_count = 1;
+      }
+    }
+    if (shift_count == 0) return std::nullopt;
+  }
+  source_ref /= static_cast<double>(shift_count);
+  target_ref /= static_cast<double>(shift_count);
 
   double total_weight = 0.0;
-  VecD source_mean = VecD::Zero();
-  VecD target_mean = VecD::Zero();
-  for (std::size_t i = first; i < n; ++i) {
-    const double w = weight(i);
-    if (w == 0.0) continue;
+  VecD source_sum = VecD::Zero();
+  VecD target_sum = VecD::Zero();
+  MatD cross = MatD::Zero();
+  double source_squares = 0.0;
+  double target_squares = 0.0;
+  const auto add = [&](std::size_t i, double w) {
     const VecD s = VecD(pairs[i].source) - source_ref;
     const VecD t = VecD(pairs[i].target) - target_ref;
-    if (!s.allFinite() || !t.allFinite()) return std::nullopt;
     total_weight += w;
-    source_mean += w * s;
-    target_mean += w * t;
+    source_sum += w * s;
+    target_sum += w * t;
+    cross.noalias() += (w * t) * s.transpose();
+    source_squares += w * s.squaredNorm();
+    target_squares += w * t.squaredNorm();
+  };
+  if (weights) {
+    for (std::size_t i = 0; i < n; ++i) {
+      if (weights[i] != 0.0) add(i, weights[i]);  // zero weight: ignored, finite or not
+    }
+  } else {
+    for (std::size_t i = 0; i < n; ++i) add(i, 1.0);
   }
-  if (!(total_weight > 0.0) || !std::isfinite(total_weight)) return std::nullopt;
-  source_mean /= total_weight;
-  target_mean /= total_weight;
-
-  MatD sigma = MatD::Zero();
-  double source_var = 0.0;
-  double target_var = 0.0;
-  for (std::size_t i = first; i < n; ++i) {
-    const double w = weight(i);
-    if (w == 0.0) continue;
-    const VecD s = (VecD(pairs[i].source) - source_ref) - source_mean;
-    const VecD t = (VecD(pairs[i].target) - target_ref) - target_mean;
-    sigma.noalias() += (w * t) * s.transpose();
-    source_var += w * s.squaredNorm();
-    target_var += w * t.squaredNorm();
+  // A non-finite coordinate of a weighted pair makes the sums non-finite: no per-datum test.
+  if (!(total_weight > 0.0) || !std::isfinite(total_weight) || !source_sum.allFinite() ||
+      !target_sum.allFinite() || !cross.allFinite() || !std::isfinite(source_squares) ||
+      !std::isfinite(target_squares)) {
+    return std::nullopt;
   }
-  sigma /= total_weight;
-  source_var /= total_weight;
-  target_var /= total_weight;
-  if (!(source_var > 0.0) || !(target_var > 0.0) || !sigma.allFinite()) return std::nullopt;
+  const VecD source_mean = source_sum / total_weight;
+  const VecD target_mean = target_sum / total_weight;
+  const MatD sigma = cross / total_weight - target_mean * source_mean.transpose();
+  const double source_var = source_squares / total_weight - source_mean.squaredNorm();
+  const double target_var = target_squares / total_weight - target_mean.squaredNorm();
+  // A variance within rounding of the raw second moment is zero: all points coincide.
+  const double resolution = 16.0 * std::numeric_limits<double>::epsilon() / total_weight;
+  if (!(source_var > resolution * source_squares) || !(target_var > resolution * target_squares) ||
+      !sigma.allFinite()) {
+    return std::nullopt;
+  }
 
   SimilarityFit<D> fit;
   double correlation = 0.0;  // trace(D S): the maximised sum sum w y_c . R x_c / W
