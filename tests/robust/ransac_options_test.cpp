@@ -55,3 +55,13 @@ TEST_CASE("RansacOptions: check() rejects every out-of-range field", "[robust]")
     CHECK(std::string(error.what()).find("threshold") != std::string::npos);
   }
 }
+
+TEST_CASE("RansacOptions: bail_out_risk must be in [0, 1)", "[robust]") {
+  diachron::RansacOptions options;
+  options.bail_out_risk = -0.1;
+  CHECK_THROWS_AS(options.check(), diachron::Error);
+  options.bail_out_risk = 1.0;
+  CHECK_THROWS_AS(options.check(), diachron::Error);
+  options.bail_out_risk = 0.0;
+  CHECK_NOTHROW(options.check());
+}

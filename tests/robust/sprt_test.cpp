@@ -88,6 +88,7 @@ TEST_CASE("SPRT: same winner as exact scoring at 10/50/90 % outliers", "[robust]
       options.threshold = 3.0;
       options.seed = seed;
       options.max_iterations = 5000;
+      options.bail_out_risk = 0.0;  // the SPRT alone against exact scoring
       const auto exact = diachron::ransac_similarity2(data, options);
       options.sprt = true;
       const auto sprt = diachron::ransac_similarity2(data, options);
@@ -105,19 +106,22 @@ TEST_CASE("SPRT: same winner as exact scoring at 10/50/90 % outliers", "[robust]
   }
 }
 
-TEST_CASE("SPRT and subset LO: deterministic across 1, 2 and 4 threads", "[robust]") {
+TEST_CASE("SPRT, bail-out and subset LO: deterministic across 1, 2 and 4 threads", "[robust]") {
   const auto data = similarity_pairs(3000, 3000, 9);
   RansacOptions options;
   options.threshold = 3.0;
   options.seed = 17;
-  for (bool sprt : {false, true}) {
+  for (int variant = 0; variant < 4; ++variant) {
+    const bool sprt = (variant & 1) != 0;
     options.sprt = sprt;
+    options.bail_out_risk = (variant & 2) != 0 ? 1e-3 : 0.0;
     options.threads = 1;
     const auto reference = diachron::ransac_similarity2(data, options);
     REQUIRE(reference.success);
+    CHECK((reference.hypotheses_bailed_out > 0) == (options.bail_out_risk > 0.0));
     for (std::size_t threads : {2u, 4u}) {
       options.threads = threads;
-      INFO("sprt " << sprt << " threads " << threads);
+      INFO("sprt " << sprt << " bail-out risk " << options.bail_out_risk << " threads " << threads);
       const auto report = diachron::ransac_similarity2(data, options);
       REQUIRE(report.model.angle == reference.model.angle);
       REQUIRE(report.model.scale == reference.model.scale);
@@ -127,6 +131,7 @@ TEST_CASE("SPRT and subset LO: deterministic across 1, 2 and 4 threads", "[robus
       REQUIRE(report.iterations == reference.iterations);
       REQUIRE(report.hypotheses_stopped_early == reference.hypotheses_stopped_early);
       REQUIRE(report.hypotheses_rejected_sprt == reference.hypotheses_rejected_sprt);
+      REQUIRE(report.hypotheses_bailed_out == reference.hypotheses_bailed_out);
       REQUIRE(report.local_optimizations == reference.local_optimizations);
       REQUIRE(report.residual_evaluations == reference.residual_evaluations);
     }

@@ -17,11 +17,13 @@
 ///   // the residual evaluations drop.
 ///   bool early_exit;
 ///
-///   // OPTIONAL. A callable double(double squared_residual) equal to gain(sqrt(r2), t) up to
-///   // rounding, 0 unless r2 <= squared_threshold (which Ransac picks so that this is exactly
-///   // sqrt(r2) <= t). Lets Ransac score without a sqrt and a division per datum when the
-///   // estimator's residual function has squared() (see robust/ransac_problem.hpp).
-///   auto squared_gain(double squared_threshold) const;
+///   // OPTIONAL. A callable double(double squared_residual) giving the gain of an INLIER from its
+///   // squared residual r2 (finite, 0 <= r2 <= squared_threshold, which Ransac picks so that
+///   // this is exactly sqrt(r2) <= t): gain(sqrt(r2), t) up to rounding, in [0, 1]. Ransac
+///   // multiplies it by the 0/1 inlier flag itself, so it needs no test and no branch. Lets
+///   // Ransac score without a sqrt, a division or a branch per datum when the estimator's
+///   // residual function has squared() (see robust/ransac_problem.hpp).
+///   auto inlier_gain(double squared_threshold) const;
 /// };
 /// @endcode
 /// Models: InlierCount (this header), Msac (robust/msac_scoring.hpp).
@@ -58,9 +60,10 @@ struct InlierCount {
 
   double gain(double residual, double threshold) const { return residual <= threshold ? 1.0 : 0.0; }
 
-  /// gain() on squared residuals (see the concept): 1 when r2 <= squared_threshold.
-  auto squared_gain(double squared_threshold) const {
-    return [squared_threshold](double r2) { return r2 <= squared_threshold ? 1.0 : 0.0; };
+  /// The gain of an inlier from its squared residual (see the concept): always 1.
+  auto inlier_gain(double squared_threshold) const {
+    static_cast<void>(squared_threshold);
+    return [](double) { return 1.0; };
   }
 };
 

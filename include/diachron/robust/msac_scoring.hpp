@@ -21,14 +21,12 @@ struct Msac {
     return q < 1.0 ? 1.0 - q * q : 0.0;
   }
 
-  /// gain() on squared residuals (see the concept): 1 - r2 / t2 for inliers, as a multiplication by
-  /// a reciprocal formed once; branch-free select, 0 for outliers and NaN.
-  auto squared_gain(double squared_threshold) const {
+  /// The gain of an inlier from its squared residual (see the concept): 1 - r2 / t2, with the
+  /// reciprocal formed once. At r2 == t2 rounding may leave a gain of order 1e-16 of either sign
+  /// where gain() gives 0; Ransac's exact bounds carry a margin for such rounding.
+  auto inlier_gain(double squared_threshold) const {
     const double inverse = 1.0 / squared_threshold;
-    return [squared_threshold, inverse](double r2) {
-      const double g = 1.0 - r2 * inverse;
-      return (r2 <= squared_threshold && g > 0.0) ? g : 0.0;
-    };
+    return [inverse](double r2) { return 1.0 - r2 * inverse; };
   }
 };
 

@@ -29,6 +29,7 @@
 #include <diachron/core/random.hpp>
 #include <diachron/core/subset.hpp>
 #include <diachron/robust/adaptive_termination.hpp>
+#include <diachron/robust/bail_out.hpp>
 #include <diachron/robust/estimator.hpp>
 #include <diachron/robust/fixed_iterations.hpp>
 #include <diachron/robust/inlier_count_scoring.hpp>
@@ -72,10 +73,19 @@ struct local_optimization_takes_stream<
 /// Determinism. Hypotheses are processed in batches (of 1, 2, 4, ... then 64 iterations; a fixed
 /// schedule). Within a batch they are generated and scored independently, on options.threads
 /// threads, with early exit bounded by the best score known before the batch; the results are then
-/// merged strictly in iteration order, and hypotheses past the stopping iteration are discarded.
-/// Since every early exit is exact and each iteration's randomness comes from its own stream, the
-/// report (model, inliers, iterations, score and all counters) is identical for every thread count.
+/// merged strictly in iteration order, and hypotheses past the stopping iteration are discarded. A
+/// batch ends early at a new best, so the bound of every iteration is the best of all before it.
+/// Since every early exit depends only on that bound and each iteration's randomness comes from its
+/// own stream, the report (model, inliers, iterations, score and all counters) is identical for
+/// every thread count.
 /// Local optimisation of the best found at iteration i draws from RandomStream(seed, ~i).
+///
+/// Bail-out test (options.bail_out_risk, on by default; robust/bail_out.hpp). Once there is a best
+/// model, a hypothesis is first scored on a random sample of the data, drawn once per run from
+/// RandomStream(seed, kScreeningStream), and dropped when Hoeffding's inequality shows its mean
+/// gain below the best's; survivors get the full pass with its exact early exit. The bound is
+/// the batch's, so the test too is the same for every thread count. Unlike the exact exit, it may
+/// drop (with probability at most bail_out_risk) a hypothesis that would have beaten the best.
 ///
 /// SPRT (options.sprt). Each batch uses one test, built before the batch from the best model so
 /// far (epsilon = its inlier rate) and delta (options.sprt_delta, then the inlier rate measured on
@@ -125,6 +135,8 @@ class Ransac {
 
   /// Hypotheses per batch once the schedule 1, 2, 4, ... has grown (see the class comment).
   static constexpr std::size_t kMaxBatch = 64;
+  /// Random stream of the screening sample (bail-out test, SPRT): RandomStream(seed, this).
+  static constexpr std::uint64_t kScreeningStream = std::uint64_t{1} << 62;
 
   /// @throws diachron::Error when `options.check()` fails.
   explicit Ransac(const RansacOptions& options = {}, Estimator estimator = {},
@@ -158,6 +170,7 @@ class Ransac {
     std::size_t generated = 0;
     std::size_t stopped_early = 0;
     std::size_t rejected_sprt = 0;
+    std::size_t bailed_out = 0;
     std::size_t rejected_evaluated = 0;
     std::size_t rejected_inliers = 0;
     std::size_t degenerate = 0;
@@ -167,7 +180,7 @@ class Ransac {
   using Problem = RansacProblem<Estimator, Scoring>;
 
   void run_iteration(const Problem& problem, const Sampler& sampler, std::size_t iteration,
-                     double bound, const SprtTest* sprt, Slot& slot) const;
+                     double bound, double sample_bound, const SprtTest* sprt, Slot& slot) const;
 
   std::size_t needed_iterations(std::size_t best_inliers, std::size_t num_data,
                                 double false_rejection = 0.0) const {
@@ -198,7 +211,8 @@ class Ransac {
 template <class E, class Sa, class Sc, class T, class L>
 void Ransac<E, Sa, Sc, T, L>::run_iteration(const Problem& problem, const Sa& sampler,
                                             std::size_t iteration, double bound,
-                                            const SprtTest* sprt, Slot& slot) const {
+                                            double sample_bound, const SprtTest* sprt,
+                                            Slot& slot) const {
   // Fields reset one by one: the model is overwritten before it is read, and assigning a
   // value-initialised Eigen model would copy uninitialised storage.
   slot.has_model = false;
@@ -206,6 +220,7 @@ void Ransac<E, Sa, Sc, T, L>::run_iteration(const Problem& problem, const Sa& sa
   slot.generated = 0;
   slot.stopped_early = 0;
   slot.rejected_sprt = 0;
+  slot.bailed_out = 0;
   slot.rejected_evaluated = 0;
   slot.rejected_inliers = 0;
   slot.degenerate = 0;
@@ -232,9 +247,11 @@ void Ransac<E, Sa, Sc, T, L>::run_iteration(const Problem& problem, const Sa& sa
       // Only a model strictly better than both the batch's bound and this sample's best so far
       // can matter, so that is the bar for early exit.
       const double bar = slot.has_model ? std::max(bound, slot.support.score) : bound;
-      const Support support = problem.score(model, bar, slot.residual_evaluations, sprt);
+      const Support support =
+          problem.score(model, bar, slot.residual_evaluations, sprt, sample_bound);
       if (!support.complete) {
         ++slot.stopped_early;
+        if (support.bailed_out) ++slot.bailed_out;
         if (support.rejected_by_sprt) {
           ++slot.rejected_sprt;
           slot.rejected_evaluated += support.evaluated;
@@ -269,13 +286,25 @@ typename Ransac<E, Sa, Sc, T, L>::Report Ransac<E, Sa, Sc, T, L>::run(const Datu
     return report;
   }
 
-  const Problem problem(estimator_, scoring_, data, size, options_.threshold);
+  // The random sample of the bail-out test and of the SPRT, from a stream no iteration (i) and no
+  // local optimisation (~i) uses while iterations stay below 2^62.
+  BailOutSample screening;
+  if ((options_.bail_out_risk > 0.0 && scoring_.early_exit) || options_.sprt) {
+    RandomStream screening_rng(options_.seed, kScreeningStream);
+    screening = make_bail_out_sample(size, scoring_.early_exit ? options_.bail_out_risk : 0.0,
+                                     screening_rng);
+  }
+  const Problem problem(estimator_, scoring_, data, size, options_.threshold, &screening);
   Sa sampler = sampler_;
   sampler.prepare(size, kSampleSize);
   const std::size_t threads = resolve_threads(options_.threads);
 
   Model best_model{};
   Support best;  // score 0: a hypothesis must have some positive gain to become the best
+  // The best model's score on the screening sample: 0 before there is one (a hypothesis must show
+  // some support on the sample to earn a full pass), -inf without the bail-out test.
+  const bool bail_out = screening.bails_out() && scoring_.early_exit;
+  double best_sample_score = bail_out ? 0.0 : -std::numeric_limits<double>::infinity();
   bool has_best = false;
   std::vector<Slot> slots(kMaxBatch);
   std::size_t iteration = 0;
@@ -303,11 +332,12 @@ typename Ransac<E, Sa, Sc, T, L>::Report Ransac<E, Sa, Sc, T, L>::run(const Datu
     const std::size_t count = std::min(batch, needed - begin);
     batch = std::min(batch * 2, kMaxBatch);
     const double bound = best.score;
+    const double sample_bound = best_sample_score;
     const SprtTest sprt = current_sprt();
     const SprtTest* sprt_ptr = sprt.active ? &sprt : nullptr;
     if (threads > 1 && count > 1) {
       parallel_for(count, threads, [&](std::size_t j) {
-        run_iteration(problem, sampler, begin + j, bound, sprt_ptr, slots[j]);
+        run_iteration(problem, sampler, begin + j, bound, sample_bound, sprt_ptr, slots[j]);
       });
     }
     for (std::size_t j = 0; j < count; ++j) {
@@ -315,16 +345,18 @@ typename Ransac<E, Sa, Sc, T, L>::Report Ransac<E, Sa, Sc, T, L>::run(const Datu
       // One thread computes each iteration only when the merge reaches it, so no hypothesis past
       // the stopping iteration is ever built; the bound is the same as with many threads.
       if (threads <= 1 || count == 1) {
-        run_iteration(problem, sampler, begin + j, bound, sprt_ptr, slot);
+        run_iteration(problem, sampler, begin + j, bound, sample_bound, sprt_ptr, slot);
       }
       report.hypotheses_generated += slot.generated;
       report.hypotheses_stopped_early += slot.stopped_early;
       report.hypotheses_rejected_sprt += slot.rejected_sprt;
+      report.hypotheses_bailed_out += slot.bailed_out;
       rejected_evaluated += slot.rejected_evaluated;
       rejected_inliers += slot.rejected_inliers;
       report.degenerate_samples += slot.degenerate;
       report.residual_evaluations += slot.residual_evaluations;
-      if (slot.has_model && slot.support.score > best.score) {
+      const bool updated = slot.has_model && slot.support.score > best.score;
+      if (updated) {
         best_model = slot.model;
         best = slot.support;
         has_best = true;
@@ -341,11 +373,20 @@ typename Ransac<E, Sa, Sc, T, L>::Report Ransac<E, Sa, Sc, T, L>::run(const Datu
         }
         if (improved) ++report.local_optimization_improvements;
         if (report.residual_evaluations != evaluations_before) ++report.local_optimizations;
+        if (bail_out) {
+          // On a complete sample the best's score is its sample score, summed in the same order.
+          best_sample_score = screening.complete
+                                  ? best.score
+                                  : problem.sample_score(best_model, report.residual_evaluations);
+        }
       }
       iteration = begin + j + 1;
       needed = needed_iterations(best.num_inliers, size,
                                  options_.sprt ? current_sprt().false_rejection() : 0.0);
-      if (iteration >= needed) break;
+      // The batch ends at a new best: later slots were scored against the old bound (and are
+      // dropped, uncounted, when workers computed them), so every iteration is scored against the
+      // best of all iterations before it, whatever the thread count and batch sizes.
+      if (iteration >= needed || updated) break;
     }
   }
   report.iterations = iteration;
@@ -366,7 +407,11 @@ typename Ransac<E, Sa, Sc, T, L>::Report Ransac<E, Sa, Sc, T, L>::run(const Datu
   // The final model: one unweighted refit on all inliers of the best model (when the estimator can
   // refine), kept when its own final pass has at least as many inliers or a higher score. That pass
   // is also the report's, so the refit costs an inlier pass, one least-squares fit and nothing more.
+  // Room for the inliers up front: growing a vector of half a million indices costs about as much
+  // as the pass that fills it.
+  const std::size_t expected_inliers = best.num_inliers + best.num_inliers / 16 + kScoreBlock;
   std::vector<std::size_t> inliers;
+  inliers.reserve(expected_inliers);
   double score = 0.0;
   double sum_squares = 0.0;
   bool final_pass_done = false;
@@ -379,6 +424,7 @@ typename Ransac<E, Sa, Sc, T, L>::Report Ransac<E, Sa, Sc, T, L>::run(const Datu
         if (refined) {
           std::vector<char> mask;
           std::vector<std::size_t> refined_inliers;
+          refined_inliers.reserve(expected_inliers);
           double refined_score = 0.0, refined_squares = 0.0;
           problem.final_pass(*refined, mask, refined_inliers, refined_score, refined_squares);
           report.residual_evaluations += size;

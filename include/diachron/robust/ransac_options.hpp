@@ -59,8 +59,19 @@ struct RansacOptions {
   /// or a higher score.
   bool final_refit = true;
 
+  /// Risk, in [0, 1), of the bail-out test (Capel 2005; robust/bail_out.hpp): before its full pass,
+  /// a hypothesis is scored on a random sample of up to 65536 data (at most a quarter of them,
+  /// drawn once per run, so input order cannot bias it) and dropped once its partial score shows,
+  /// by Hoeffding's inequality, that it is below the best so far. A hypothesis at least as good as
+  /// the best is dropped with probability at most this risk; those it most often concerns are near
+  /// ties with the best, which local optimisation and the final refit have already improved on.
+  /// 0 turns the test off (every hypothesis then gets the exact treatment alone). Applies only
+  /// when the Scoring policy's early_exit is on, and only to 1024 data or more.
+  double bail_out_risk = 1e-3;
+
   /// Reject hypotheses early with the sequential probability ratio test of randomized RANSAC
-  /// (Matas and Chum 2005; robust/sprt.hpp): after every block of 64 data, a hypothesis whose
+  /// (Matas and Chum 2005; robust/sprt.hpp): at the checkpoints of the bail-out sample (random
+  /// order; after every block of 64 data in input order for fewer than 1024 data), a hypothesis whose
   /// inliers so far are much likelier under "bad model" (inlier rate sprt_delta, re-estimated from
   /// the rejected models) than under "as good as the best so far" is dropped. A good model is
   /// dropped with probability at most 1 / A (typically 1e-2 to 1e-3); the adaptive stopping rule is
@@ -88,6 +99,8 @@ struct RansacOptions {
     DIACHRON_CHECK(confidence > 0.0 && confidence <= 1.0,
                    "RansacOptions::confidence must be in (0, 1], got " << confidence);
     DIACHRON_CHECK(max_sample_attempts >= 1, "RansacOptions::max_sample_attempts must be >= 1");
+    DIACHRON_CHECK(bail_out_risk >= 0.0 && bail_out_risk < 1.0,
+                   "RansacOptions::bail_out_risk must be in [0, 1), got " << bail_out_risk);
     DIACHRON_CHECK(sprt_delta > 0.0 && sprt_delta < 1.0,
                    "RansacOptions::sprt_delta must be in (0, 1), got " << sprt_delta);
     DIACHRON_CHECK(std::isfinite(sprt_model_cost) && sprt_model_cost > 0.0,

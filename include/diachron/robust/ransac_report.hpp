@@ -43,6 +43,8 @@ struct RansacReport {
   std::size_t hypotheses_stopped_early = 0;
   /// Of hypotheses_stopped_early, those the SPRT rejected (RansacOptions::sprt; 0 without it).
   std::size_t hypotheses_rejected_sprt = 0;
+  /// Of hypotheses_stopped_early, those the bail-out test dropped (RansacOptions::bail_out_risk).
+  std::size_t hypotheses_bailed_out = 0;
   /// Samples rejected as degenerate or giving no model (each one was redrawn or ended its
   /// iteration).
   std::size_t degenerate_samples = 0;

@@ -21,9 +21,9 @@ namespace diachron {
 
 /// Iterated weighted least squares on a random subset of the data, then one full score.
 ///
-/// 1. Pool: when the model has more than `max_lo_data` inliers, a random subset of the data
-///    (without replacement, in random order) of about 1.5 x max_lo_data / inlier rate data, drawn
-///    from the stream Ransac derives from (seed, iteration); otherwise all data.
+/// 1. Pool: a random subset of the data (without replacement, in random order) of about
+///    1.5 x max_lo_data / inlier rate data, at most `max_pool`, drawn from the stream Ransac derives
+///    from (seed, iteration); all data when that is at least as many.
 /// 2. Up to `max_steps` steps: the current model's inliers in the pool (the first `max_lo_data` of
 ///    them in the pool's order) are refit with Estimator::refine (Tukey weights by default); the
 ///    refit replaces the current model only if its score on the pool is strictly higher.
@@ -31,8 +31,10 @@ namespace diachron {
 ///    score) and kept only if its full score is strictly higher.
 /// The final refit on all inliers of the best model stays in Ransac (RansacOptions::final_refit).
 ///
-/// Cost per local optimisation: about (steps + 1) x pool residuals, refits on at most max_lo_data
-/// data, plus one pass over the data, instead of up to 3 passes and a refit on all inliers per step.
+/// Cost per local optimisation: at most (steps + 1) x max_pool residuals, refits on at most
+/// max_lo_data data, plus one pass over the data, instead of up to 3 passes and a refit on all
+/// inliers per step. Without the max_pool cap, a model with a handful of inliers (a wrong early
+/// best) would make every step a pass over all data.
 ///
 /// Guards (COLMAP #4678 crashed here): a step with fewer than kSampleSize inliers in the pool, a
 /// refit that fails, or one that does not strictly improve the pool score ends the iteration, so a
@@ -46,6 +48,10 @@ struct Refit {
   /// least-squares error of the fit shrinks as 1 / sqrt(data), so beyond a few thousand more data
   /// buy little; the final refit on all inliers restores full accuracy.
   std::size_t max_lo_data = 2000;
+  /// Most data a step evaluates (>= 1). The default holds 2000 inliers down to an inlier rate of
+  /// about 9 %; below that the refits see fewer inliers (about 0.3 x max_pool x rate), which still
+  /// suffices for the few parameters of a geometric model.
+  std::size_t max_pool = 32768;
   /// true: Tukey biweight IRLS weights (1 - (r / t)^2)^2, which let inliers near the threshold (the
   /// likeliest to be outliers in disguise) count less; false: unit weights, i.e. plain least
   /// squares on the inliers (IRLS for the truncated quadratic).
@@ -80,13 +86,11 @@ struct Refit {
 
       // The pool: all data (pool empty = identity) or a random subset in random order.
       std::vector<std::size_t> pool;
-      const bool subset_pool = support.num_inliers > cap;
-      if (subset_pool) {
-        const double rate = static_cast<double>(support.num_inliers) / static_cast<double>(n);
-        const double want = std::ceil(1.5 * static_cast<double>(cap) / rate);
-        const std::size_t m = want >= static_cast<double>(n) ? n : static_cast<std::size_t>(want);
-        draw_pool(n, m, rng, pool);
-      }
+      const double rate = static_cast<double>(support.num_inliers) / static_cast<double>(n);
+      const double want = std::min(std::ceil(1.5 * static_cast<double>(cap) / rate),
+                                   static_cast<double>(std::max<std::size_t>(max_pool, 1)));
+      const bool subset_pool = want < static_cast<double>(n);
+      if (subset_pool) draw_pool(n, static_cast<std::size_t>(want), rng, pool);
       const std::size_t* pool_ptr = subset_pool ? pool.data() : nullptr;
       const std::size_t pool_size = subset_pool ? pool.size() : n;
 
