@@ -69,12 +69,14 @@ struct Run {
   double iterations = kNaN;
   double hypotheses = kNaN;
   double stopped_early = kNaN;
+  double bailed_out = kNaN;
   double local_optimizations = kNaN;
   double passes = kNaN;  // residual evaluations / N
 };
 
 struct Stats {
-  std::vector<double> ms, cpu_ms, errors, iterations, hypotheses, stopped_early, local_optimizations, passes;
+  std::vector<double> ms, cpu_ms, errors, iterations, hypotheses, stopped_early, bailed_out, local_optimizations,
+      passes;
   std::size_t successes = 0;
 
   void add(const Run& run, double tolerance) {
@@ -86,6 +88,7 @@ struct Stats {
       iterations.push_back(run.iterations);
       hypotheses.push_back(run.hypotheses);
       stopped_early.push_back(run.stopped_early);
+      bailed_out.push_back(run.bailed_out);
       local_optimizations.push_back(run.local_optimizations);
       passes.push_back(run.passes);
     }
@@ -98,19 +101,24 @@ void copy_counters(const RansacReport<Model>& report, Run& run) {
   run.iterations = static_cast<double>(report.iterations);
   run.hypotheses = static_cast<double>(report.hypotheses_generated);
   run.stopped_early = static_cast<double>(report.hypotheses_stopped_early);
+  run.bailed_out = static_cast<double>(report.hypotheses_bailed_out);
   run.local_optimizations = static_cast<double>(report.local_optimizations);
   run.passes = report.data_passes();
 }
 
 // --- ours ----------------------------------------------------------------------------------------
 
-RansacOptions our_options(double threshold, std::uint64_t seed, bool paper_fixed,
-                          bool sprt = false) {
+/// Which of our configurations runs: the defaults, the paper's fixed 1000 iterations, the defaults
+/// without the bail-out test (every early stop exact), or the defaults plus the SPRT.
+enum class Ours { kDefaults, kPaperFixed, kExact, kSprt };
+
+RansacOptions our_options(double threshold, std::uint64_t seed, Ours variant) {
   RansacOptions options;
-  options.sprt = sprt;
+  options.sprt = variant == Ours::kSprt;
+  if (variant == Ours::kExact) options.bail_out_risk = 0.0;
   options.threshold = threshold;
   options.seed = seed;
-  if (paper_fixed) {
+  if (variant == Ours::kPaperFixed) {
     // confidence 1 means "never stop early": exactly max_iterations samples, as in the paper.
     options.max_iterations = kPaperIterations;
     options.confidence = 1.0;
@@ -118,8 +126,8 @@ RansacOptions our_options(double threshold, std::uint64_t seed, bool paper_fixed
   return options;
 }
 
-Run run_ours2(const Problem2& p, std::uint64_t seed, bool paper_fixed, bool sprt = false) {
-  const RansacOptions options = our_options(p.threshold, seed, paper_fixed, sprt);
+Run run_ours2(const Problem2& p, std::uint64_t seed, Ours variant) {
+  const RansacOptions options = our_options(p.threshold, seed, variant);
   Run run;
   const Stopwatch watch;
   const RansacReport<Similarity2> report = ransac_similarity2(p.pairs, options);
@@ -130,8 +138,8 @@ Run run_ours2(const Problem2& p, std::uint64_t seed, bool paper_fixed, bool sprt
   return run;
 }
 
-Run run_ours3(const Problem3& p, std::uint64_t seed, bool paper_fixed, bool sprt = false) {
-  const RansacOptions options = our_options(p.threshold, seed, paper_fixed, sprt);
+Run run_ours3(const Problem3& p, std::uint64_t seed, Ours variant) {
+  const RansacOptions options = our_options(p.threshold, seed, variant);
   Run run;
   const Stopwatch watch;
   const RansacReport<Helmert3> report = ransac_helmert3(p.pairs, options);
@@ -368,6 +376,7 @@ struct Method {
   bool fixed_1000 = false;  // runs the paper's fixed 1000 iterations (no counter to report them)
   bool reference = false;   // not robust (has the true inliers): success is not comparable
   bool ours = false;        // a variant of ours (not a peer): left out of the ratio table
+  bool exact = false;       // ours without the bail-out test: its own ratio column
 };
 
 struct ScenarioResult {
@@ -414,12 +423,14 @@ ScenarioResult run2d(const Config& config, std::size_t n, double outliers) {
   std::vector<Method> methods{{"ours, defaults", false, false},
                               {"ours, fixed 1000 it.", true, false},
                               {"OpenCV estimateAffinePartial2D", false, false},
-                              {"ours, SPRT", false, false, true}};
+                              {"ours, exact (no bail-out)", false, false, true, true},
+                              {"ours, + SPRT", false, false, true}};
   auto run_method = [](std::size_t m, const Problem2& p, std::uint64_t seed) {
     switch (m) {
-      case 0: return run_ours2(p, seed, false);
-      case 1: return run_ours2(p, seed, true);
-      case 3: return run_ours2(p, seed, false, true);
+      case 0: return run_ours2(p, seed, Ours::kDefaults);
+      case 1: return run_ours2(p, seed, Ours::kPaperFixed);
+      case 3: return run_ours2(p, seed, Ours::kExact);
+      case 4: return run_ours2(p, seed, Ours::kSprt);
       default: return run_opencv_partial2d(p, CvPoints2(p));
     }
   };
@@ -434,12 +445,14 @@ ScenarioResult run3d(const Config& config, std::size_t n, double outliers) {
                               {"ours, fixed 1000 it.", true, false},
                               {"plain loop: umeyama x 1000", true, false},
                               {"OpenCV estimateAffine3D LS, true inliers", false, true},
-                              {"ours, SPRT", false, false, true}};
+                              {"ours, exact (no bail-out)", false, false, true, true},
+                              {"ours, + SPRT", false, false, true}};
   auto run_method = [](std::size_t m, const Problem3& p, std::uint64_t seed) {
     switch (m) {
-      case 0: return run_ours3(p, seed, false);
-      case 1: return run_ours3(p, seed, true);
-      case 4: return run_ours3(p, seed, false, true);
+      case 0: return run_ours3(p, seed, Ours::kDefaults);
+      case 1: return run_ours3(p, seed, Ours::kPaperFixed);
+      case 4: return run_ours3(p, seed, Ours::kExact);
+      case 5: return run_ours3(p, seed, Ours::kSprt);
       case 2: return run_umeyama_loop(p, seed, kPaperIterations);
       default: return run_opencv_ls3_on_inliers(p);
     }
@@ -454,10 +467,10 @@ ScenarioResult run3d(const Config& config, std::size_t n, double outliers) {
 /// small case, untimed, so the first recorded scenario is not penalised.
 void warm_up() {
   const Problem2 p2 = make_problem2(10000, 0.5, 999);
-  static_cast<void>(run_ours2(p2, 999, false));
+  static_cast<void>(run_ours2(p2, 999, Ours::kDefaults));
   static_cast<void>(run_opencv_partial2d(p2, CvPoints2(p2)));
   const Problem3 p3 = make_problem3(10000, 0.5, 999);
-  static_cast<void>(run_ours3(p3, 999, false));
+  static_cast<void>(run_ours3(p3, 999, Ours::kDefaults));
   static_cast<void>(run_umeyama_loop(p3, 999, 100));
   static_cast<void>(run_opencv_ls3_on_inliers(p3));
 }
@@ -489,12 +502,12 @@ void print_results(const std::vector<ScenarioResult>& results, const std::string
 /// to trust on a shared machine; wall time is given as well.
 void print_ratios(const std::vector<ScenarioResult>& results) {
   Table table({"model", "N", "outliers", "peer", "peer / ours (defaults), CPU", "same, wall",
-               "peer / ours (1000 it.), CPU", "peer / ours (SPRT), CPU",
-               "success ours (defaults) vs peer", "success ours (SPRT)"});
+               "peer / ours (exact), CPU", "peer / ours (1000 it.), CPU",
+               "success ours (defaults) vs peer", "success ours (exact)"});
   for (const ScenarioResult& r : results) {
-    const Stats* sprt = nullptr;
+    const Stats* exact = nullptr;
     for (std::size_t m = 0; m < r.methods.size(); ++m) {
-      if (r.methods[m].ours && !r.stats[m].cpu_ms.empty()) sprt = &r.stats[m];
+      if (r.methods[m].exact && !r.stats[m].cpu_ms.empty()) exact = &r.stats[m];
     }
     for (std::size_t m = 2; m < r.methods.size(); ++m) {
       if (r.methods[m].reference || r.methods[m].ours) continue;
@@ -502,11 +515,11 @@ void print_ratios(const std::vector<ScenarioResult>& results) {
       table.add({r.model, format_count(r.n), percent(r.outliers), r.methods[m].name,
                  format_number(median(s.cpu_ms) / median(r.stats[0].cpu_ms)),
                  format_number(median(s.ms) / median(r.stats[0].ms)),
+                 exact ? format_number(median(s.cpu_ms) / median(exact->cpu_ms)) : "-",
                  format_number(median(s.cpu_ms) / median(r.stats[1].cpu_ms)),
-                 sprt ? format_number(median(s.cpu_ms) / median(sprt->cpu_ms)) : "-",
                  std::to_string(r.stats[0].successes) + "/" + std::to_string(r.stats[0].runs()) + " vs " +
                      std::to_string(s.successes) + "/" + std::to_string(s.runs()),
-                 sprt ? std::to_string(sprt->successes) + "/" + std::to_string(sprt->runs()) : "-"});
+                 exact ? std::to_string(exact->successes) + "/" + std::to_string(exact->runs()) : "-"});
     }
   }
   std::cout << "\n### Ratios\n\n";
@@ -517,7 +530,7 @@ void print_ratios(const std::vector<ScenarioResult>& results) {
 void print_passes(const std::vector<ScenarioResult>& results) {
   Table table({"model", "N", "outliers", "bare pass, CPU ms", "residual fn pass, CPU ms", "ours, CPU ms",
                "ours / bare pass", "ours / residual fn pass", "residual evals / N", "hypotheses scored",
-               "stopped early", "local opt."});
+               "stopped early", "of which bailed out", "local opt."});
   for (const ScenarioResult& r : results) {
     const Stats& s = r.stats[0];
     const double ours = median(s.cpu_ms);
@@ -525,7 +538,8 @@ void print_passes(const std::vector<ScenarioResult>& results) {
                format_number(r.pass.estimator.cpu_ms), format_number(ours),
                format_number(ours / r.pass.bare.cpu_ms), format_number(ours / r.pass.estimator.cpu_ms),
                format_number(median(s.passes)), format_number(median(s.hypotheses)),
-               format_number(median(s.stopped_early)), format_number(median(s.local_optimizations))});
+               format_number(median(s.stopped_early)), format_number(median(s.bailed_out)),
+               format_number(median(s.local_optimizations))});
   }
   std::cout << "\n### Ours (defaults) in passes over the data\n\n";
   table.print(std::cout);
