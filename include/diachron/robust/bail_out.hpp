@@ -12,7 +12,8 @@
 ///
 /// The bound. Gains are in [0, 1] (the Scoring concept). For a hypothesis whose mean gain over all
 /// data is at least the best's, mu_best = score_best / N, the sum S_n of its gains on n sampled
-/// data satisfies, by Hoeffding's inequality (which holds for draws with and without replacement),
+/// data satisfies, by Hoeffding's inequality (which holds for independent draws, identically
+/// distributed or not, and for draws without replacement),
 ///   P(S_n < n mu_best - sqrt(n ln(K / risk) / 2)) <= risk / K.
 /// The test runs at K checkpoints (n = 64, 128, 256, ... up to the sample size), so a hypothesis
 /// at least as good as the best is dropped with probability at most `risk` (union bound). Models
@@ -21,8 +22,9 @@
 ///
 /// The sample. Up to kMaxBailOutSample data it is a random permutation of all of them: scoring in
 /// that order IS the full score, so a hypothesis that survives every checkpoint needs nothing more
-/// (the sample is `complete`). Above, it is kMaxBailOutSample indices drawn with replacement, and a
-/// survivor then gets the full pass in input order; before that, it must also score strictly more
+/// (the sample is `complete`). Above, it is kMaxBailOutSample independent draws, stratified over
+/// the input between checkpoints (see make_bail_out_sample), and a survivor then gets the full pass
+/// in input order; before that, it must also score strictly more
 /// on the sample than the best model did (or than 0 when there is no best yet). That last rule is
 /// a comparison of estimates, not a bound: a hypothesis better than the best by d in mean gain per
 /// datum fails it with probability at most exp(-kMaxBailOutSample d^2 / 2) (below 1e-5 for
@@ -58,8 +60,8 @@ inline constexpr std::size_t kFirstBailOutCheckpoint = 64;
 
 /// The random sample and checkpoints of one run (read-only once built; shared by all threads).
 struct BailOutSample {
-  /// Indices into the data: a permutation of all of them when `complete`, otherwise drawn
-  /// uniformly with replacement.
+  /// Indices into the data: a permutation of all of them when `complete`, otherwise independent
+  /// draws, one per stratum of the input between consecutive checkpoints.
   std::vector<std::size_t> indices;
   /// True when `indices` visits every datum exactly once.
   bool complete = false;
@@ -103,11 +105,27 @@ inline BailOutSample make_bail_out_sample(std::size_t num_data, double risk, Ran
       std::swap(sample.indices[i], sample.indices[i + rng.uniform_index(size - i)]);
     }
     sample.complete = true;
-  } else {
-    for (std::size_t& index : sample.indices) index = rng.uniform_index(num_data);
   }
   for (std::size_t n = kFirstBailOutCheckpoint; n < size; n *= 2) sample.checkpoints.push_back(n);
   sample.checkpoints.push_back(size);
+  if (!sample.complete) {
+    // Each stretch between checkpoints is a stratified sample of the whole input: its k-th of L
+    // indices is floor((k + u_k) N / L) with independent u_k uniform in [0, 1). The strata tile
+    // [0, N) exactly, so every datum is drawn with total probability L / N and a stretch's sum has
+    // the population mean as expectation even when L does not divide N; the draws are independent,
+    // so Hoeffding's bound holds. The sample covers every part of an ordered list, and comes out
+    // increasing, which turns scattered reads into strided ones.
+    const double n = static_cast<double>(num_data);
+    std::size_t begin = 0;
+    for (const std::size_t end : sample.checkpoints) {
+      const double strata = static_cast<double>(end - begin);
+      for (std::size_t k = begin; k < end; ++k) {
+        const double position = (static_cast<double>(k - begin) + rng.uniform01()) * n / strata;
+        sample.indices[k] = std::min(static_cast<std::size_t>(position), num_data - 1);
+      }
+      begin = end;
+    }
+  }
   if (risk > 0.0) {
     sample.log_term = 0.5 * std::log(static_cast<double>(sample.checkpoints.size()) / risk);
   }
