@@ -4,7 +4,7 @@
 // and 3D pairs related by a known Helmert (the precise matching's), buries them in outliers, and
 // runs two compositions of diachron::Ransac on each:
 //   paper:   UniformSampler + InlierCount + FixedIterations (1000) + NoLocalOptimization
-//   default: UniformSampler + Msac (early exit) + Adaptive + Refit
+//   default: UniformSampler + Msac (exact early exit and the bail-out test) + Adaptive + Refit
 // and prints what each found: model error at the scene corners, true inliers recovered,
 // iterations, passes over the data, and time. docs/concepts.md explains the policies and how to
 // plug in a new model.
@@ -94,10 +94,10 @@ void run(const char* name, const Ransac& ransac, const Data& data, const Model& 
                     [&](std::size_t i) { return i < true_inliers; }));
   std::printf(
       "  %-8s corner error %7.3f | inliers %5zu (true %5zu of %zu) | rms %6.3f | iterations %5zu |"
-      " best %2zu LO %2zu | passes %7.1f | %8.3f ms\n",
+      " best %2zu LO %2zu | bailed out %4zu | passes %7.1f | %8.3f ms\n",
       name, corner_error(report.model, truth, corners), report.inliers.size(), found, true_inliers,
       report.rms, report.iterations, report.best_updates, report.local_optimizations,
-      report.data_passes(), ms);
+      report.hypotheses_bailed_out, report.data_passes(), ms);
 }
 
 }  // namespace

@@ -12,9 +12,11 @@
 ///   double gain(double residual, double threshold) const;
 ///
 ///   // When true, Ransac stops scoring a hypothesis as soon as the data left, each adding at most
-///   // 1, can no longer lift its sum strictly above the best so far (with a margin for rounding).
-///   // The bound is exact, so the winner, the iterations and the final model are unchanged; only
-///   // the residual evaluations drop.
+///   // 1, can no longer lift its sum strictly above the best so far (with a margin for rounding):
+///   // an exact bound, which changes nothing but the residual evaluations. It also enables the
+///   // bail-out test (RansacOptions::bail_out_risk, robust/bail_out.hpp), which drops hypotheses
+///   // whose score on a random sample is, with high confidence, below the best's. False scores
+///   // every hypothesis on all data.
 ///   bool early_exit;
 ///
 ///   // OPTIONAL. A callable double(double squared_residual) giving the gain of an INLIER from its

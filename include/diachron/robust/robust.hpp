@@ -5,6 +5,7 @@
 
 #include <diachron/robust/adaptive_termination.hpp>
 #include <diachron/robust/estimator.hpp>
+#include <diachron/robust/bail_out.hpp>
 #include <diachron/robust/fixed_iterations.hpp>
 #include <diachron/robust/inlier_count_scoring.hpp>
 #include <diachron/robust/msac_scoring.hpp>
