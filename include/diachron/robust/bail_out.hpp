@@ -20,23 +20,26 @@
 /// clearly worse go early: at 50 % inliers, a wrong model (a few % of chance inliers) is dropped
 /// after 64 data; a model with a quarter less mean gain, after about a thousand.
 ///
-/// The sample. Up to kMaxBailOutSample data it is a random permutation of all of them: scoring in
-/// that order IS the full score, so a hypothesis that survives every checkpoint needs nothing more
-/// (the sample is `complete`). Above, it is kMaxBailOutSample independent draws, stratified over
-/// the input between checkpoints (see make_bail_out_sample), and a survivor then gets the full pass
-/// in input order; before that, it must also score strictly more
-/// on the sample than the best model did (or than 0 when there is no best yet). That last rule is
-/// a comparison of estimates, not a bound: a hypothesis better than the best by d in mean gain per
-/// datum fails it with probability at most exp(-kMaxBailOutSample d^2 / 2) (below 1e-5 for
-/// d = 0.02), while near-ties, which local optimisation and the final refit make moot, go either
-/// way. It also drops models with no inlier in the sample: with probability 1 - risk their inlier
-/// count is below N ln(1 / risk) / kMaxBailOutSample (105 of 1M data at risk 1e-3), fewer than any
-/// match set worth a model would have. Without it, every wrong hypothesis met before the first
-/// right one would cost a full pass.
+/// The sample. Up to kMaxCompleteBailOutSample data it is a random permutation of all of them:
+/// scoring in that order IS the full score, so a hypothesis that survives every checkpoint needs
+/// nothing more (the sample is `complete`). Above, it is N / 8 independent draws (at least
+/// kMaxCompleteBailOutSample, at most kMaxBailOutSample), stratified over the input between
+/// checkpoints (see make_bail_out_sample), and a survivor then gets the full pass in input order;
+/// before that, it must also score strictly more on the sample than the best model did (or than 0
+/// when there is no best yet). That last rule is a comparison of estimates, not a bound: a
+/// hypothesis better than the best by d in mean gain per datum fails it with probability at most
+/// exp(-M d^2 / 2) for a sample of M (below 1e-5 for d = 0.02 and M = 65536), while near-ties,
+/// which local optimisation and the final refit make moot, go either way. It also drops a model
+/// with no inlier in the sample, which happens to one with k inliers with probability about
+/// exp(-k M / N): below 1e-3 from k = 56 inliers in N / 8 draws, k = 105 of 1M data (M = 65536).
+/// Without the rule, every wrong hypothesis met before the first right one, and at high outlier
+/// rates that is most of them, would cost a full pass.
 ///
-/// Cost. A sample of kMaxBailOutSample indices takes 0.5 MB and is drawn once per run; scattered
-/// reads cost a few times a sequential one, which the early decisions repay many times over. Fewer
-/// than kMinBailOutData data are not screened (a pass over them is cheap).
+/// Cost. The sample takes at most 0.5 MB of indices and is drawn once per run. Its reads are
+/// scattered (a permutation) or strided (the stratified draws) and cost about three times a
+/// sequential read, which the early decisions repay many times over; a wrong hypothesis met while
+/// the best is still wrong costs M such reads, an eighth of the data or less. Fewer than
+/// kMinBailOutData data are not screened (a pass over them is cheap).
 
 #include <algorithm>
 #include <cmath>
@@ -50,9 +53,10 @@
 
 namespace diachron {
 
-/// Most data a hypothesis is screened on before its full pass (in a random permutation of all
-/// data when there are no more than this).
+/// Most data a hypothesis is screened on before its full pass.
 inline constexpr std::size_t kMaxBailOutSample = std::size_t{1} << 16;
+/// Up to this many data, the sample is a permutation of all of them.
+inline constexpr std::size_t kMaxCompleteBailOutSample = 4096;
 /// Fewest data to screen: below this a pass is cheap.
 inline constexpr std::size_t kMinBailOutData = 256;
 /// The first checkpoint; later ones double.
@@ -84,11 +88,13 @@ struct BailOutSample {
   }
 };
 
-/// Sample size for `num_data` data: all of them up to kMaxBailOutSample, kMaxBailOutSample above,
-/// 0 below kMinBailOutData.
+/// Sample size for `num_data` data: 0 below kMinBailOutData, all of them up to
+/// kMaxCompleteBailOutSample, then num_data / 8 clamped to [kMaxCompleteBailOutSample,
+/// kMaxBailOutSample].
 inline std::size_t bail_out_sample_size(std::size_t num_data) {
   if (num_data < kMinBailOutData) return 0;
-  return std::min(num_data, kMaxBailOutSample);
+  if (num_data <= kMaxCompleteBailOutSample) return num_data;
+  return std::clamp(num_data / 8, kMaxCompleteBailOutSample, kMaxBailOutSample);
 }
 
 /// Draws the sample of one run from `rng`. `risk` in [0, 1): probability, per hypothesis at least

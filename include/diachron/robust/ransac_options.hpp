@@ -60,18 +60,19 @@ struct RansacOptions {
   bool final_refit = true;
 
   /// Risk, in [0, 1), of the bail-out test (Capel 2005; robust/bail_out.hpp): before its full pass,
-  /// a hypothesis is scored on a random sample of up to 65536 data (at most a quarter of them,
-  /// drawn once per run, so input order cannot bias it) and dropped once its partial score shows,
-  /// by Hoeffding's inequality, that it is below the best so far. A hypothesis at least as good as
-  /// the best is dropped with probability at most this risk; those it most often concerns are near
-  /// ties with the best, which local optimisation and the final refit have already improved on.
-  /// 0 turns the test off (every hypothesis then gets the exact treatment alone). Applies only
-  /// when the Scoring policy's early_exit is on, and only to 1024 data or more.
+  /// a hypothesis is scored on a random sample of the data (all of them in random order up to 4096,
+  /// else an eighth of them, 4096 to 65536, drawn once per run so input order cannot bias it) and
+  /// dropped once its partial score shows, by Hoeffding's inequality, that it is below the best
+  /// so far. A hypothesis at least as good as the best is dropped with probability at most this
+  /// risk; those it most often concerns are near ties with the best, which local optimisation and
+  /// the final refit have already improved on. 0 turns the test off (every hypothesis then gets
+  /// the exact treatment alone). Applies only when the Scoring policy's early_exit is on, and only
+  /// to 256 data or more.
   double bail_out_risk = 1e-3;
 
   /// Reject hypotheses early with the sequential probability ratio test of randomized RANSAC
   /// (Matas and Chum 2005; robust/sprt.hpp): at the checkpoints of the bail-out sample (random
-  /// order; after every block of 64 data in input order for fewer than 1024 data), a hypothesis whose
+  /// order; after every block of 64 data in input order for fewer than 256 data), a hypothesis whose
   /// inliers so far are much likelier under "bad model" (inlier rate sprt_delta, re-estimated from
   /// the rejected models) than under "as good as the best so far" is dropped. A good model is
   /// dropped with probability at most 1 / A (typically 1e-2 to 1e-3); the adaptive stopping rule is

@@ -25,7 +25,8 @@ using DefaultRansac = Ransac<Estimator, UniformSampler, Msac, Adaptive, Refit>;
 
 /// The paper's composition (Zhang et al., MicMac TiePHistorical): plain RANSAC counting inliers for
 /// exactly options.max_iterations (1000) iterations, no local optimisation. The final refit on the
-/// inliers still runs unless options.final_refit is false.
+/// inliers still runs unless options.final_refit is false, and the bail-out test unless
+/// options.bail_out_risk is 0 (then every hypothesis is compared exactly, as the paper's code does).
 template <class Estimator>
 using PaperRansac =
     Ransac<Estimator, UniformSampler, InlierCount, FixedIterations, NoLocalOptimization>;
@@ -44,9 +45,9 @@ void check_finite_pairs(const Pairs& data, const char* function) {
 
 /// Robust 2D similarity `target = scale * R(angle) * source + translation` from point pairs.
 ///
-/// Defaults: MSAC with early exit, Refit local optimisation, adaptive termination with
-/// options.confidence capped at options.max_iterations (1000), final weighted-least-squares refit
-/// on all inliers. For the paper's fixed 1000 iterations set `options.confidence = 1` ("never stop
+/// Defaults: MSAC with early exit and the bail-out test (options.bail_out_risk), Refit local
+/// optimisation, adaptive termination with options.confidence capped at options.max_iterations
+/// (1000), final least-squares refit on all inliers. For the paper's fixed 1000 iterations set `options.confidence = 1` ("never stop
 /// early"), or use PaperRansac<Similarity2Estimator> for the paper's whole composition.
 ///
 /// @param data      correspondences; `source` in the frame being moved, `target` in the reference
