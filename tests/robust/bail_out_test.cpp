@@ -12,6 +12,8 @@
 #include <diachron/robust/bail_out.hpp>
 #include <diachron/robust/robust_estimation.hpp>
 
+#include "robust/test_estimators.hpp"
+
 using diachron::BailOutSample;
 using diachron::PointPair2;
 using diachron::RandomStream;
@@ -19,29 +21,7 @@ using diachron::RansacOptions;
 
 namespace {
 
-// `inliers` pairs under a known similarity (scale 1.2, 0.3 rad) with Gaussian noise of 1 px and
-// `outliers` uniform pairs; `outliers_first` puts every outlier at the head of the list, as a tile
-// without overlap would in a real match list.
-std::vector<PointPair2> similarity_pairs(std::size_t inliers, std::size_t outliers,
-                                         std::uint64_t seed, bool outliers_first) {
-  RandomStream rng(seed, 11);
-  std::vector<PointPair2> data;
-  const double c = 1.2 * std::cos(0.3), s = 1.2 * std::sin(0.3);
-  const std::size_t n = inliers + outliers;
-  for (std::size_t k = 0; k < n; ++k) {
-    const bool inlier = outliers_first ? k >= outliers : k < inliers;
-    PointPair2 p;
-    p.source = Eigen::Vector2d(rng.uniform(0, 1000), rng.uniform(0, 1000));
-    if (inlier) {
-      p.target = Eigen::Vector2d(c * p.source.x() - s * p.source.y() + 50 + rng.normal(0, 1),
-                                 s * p.source.x() + c * p.source.y() - 20 + rng.normal(0, 1));
-    } else {
-      p.target = Eigen::Vector2d(rng.uniform(-500, 1500), rng.uniform(-500, 1500));
-    }
-    data.push_back(p);
-  }
-  return data;
-}
+using diachron_test::similarity_pairs;
 
 bool is_true_inlier(std::size_t index, std::size_t inliers, std::size_t outliers,
                     bool outliers_first) {

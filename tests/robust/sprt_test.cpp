@@ -17,25 +17,7 @@ using diachron::RansacOptions;
 
 namespace {
 
-// `inliers` pairs under a known similarity with Gaussian noise, then `outliers` uniform pairs.
-std::vector<PointPair2> similarity_pairs(std::size_t inliers, std::size_t outliers,
-                                         std::uint64_t seed) {
-  diachron::RandomStream rng(seed, 7);
-  std::vector<PointPair2> data;
-  const double c = 1.2 * std::cos(0.3), s = 1.2 * std::sin(0.3);
-  for (std::size_t i = 0; i < inliers + outliers; ++i) {
-    PointPair2 p;
-    p.source = Eigen::Vector2d(rng.uniform(0, 1000), rng.uniform(0, 1000));
-    if (i < inliers) {
-      p.target = Eigen::Vector2d(c * p.source.x() - s * p.source.y() + 50 + rng.normal(0, 1),
-                                 s * p.source.x() + c * p.source.y() - 20 + rng.normal(0, 1));
-    } else {
-      p.target = Eigen::Vector2d(rng.uniform(-500, 1500), rng.uniform(-500, 1500));
-    }
-    data.push_back(p);
-  }
-  return data;
-}
+using diachron_test::similarity_pairs;
 
 std::size_t true_found(const std::vector<std::size_t>& inliers, std::size_t count) {
   std::size_t n = 0;

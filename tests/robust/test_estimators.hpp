@@ -208,4 +208,30 @@ inline double line_error(const Line& line, double slope = 0.5, double intercept 
   return std::max(std::abs(y(0.0) - intercept), std::abs(y(extent) - (slope * extent + intercept)));
 }
 
+/// Point pairs under target = 1.2 R(0.3) source + (50, -20): `inliers` with Gaussian noise of 1 px
+/// per coordinate, sources in [0, 1000]^2, and `outliers` with targets uniform in [-500, 1500]^2.
+/// Inliers come first, or last with `outliers_first` (as a tile without overlap at the head of a
+/// real match list would put them).
+inline std::vector<diachron::PointPair2> similarity_pairs(std::size_t inliers,
+                                                          std::size_t outliers,
+                                                          std::uint64_t seed,
+                                                          bool outliers_first = false) {
+  diachron::RandomStream rng(seed, 7);
+  std::vector<diachron::PointPair2> data;
+  const double c = 1.2 * std::cos(0.3), s = 1.2 * std::sin(0.3);
+  for (std::size_t k = 0; k < inliers + outliers; ++k) {
+    const bool inlier = outliers_first ? k >= outliers : k < inliers;
+    diachron::PointPair2 p;
+    p.source = Eigen::Vector2d(rng.uniform(0, 1000), rng.uniform(0, 1000));
+    if (inlier) {
+      p.target = Eigen::Vector2d(c * p.source.x() - s * p.source.y() + 50 + rng.normal(0, 1),
+                                 s * p.source.x() + c * p.source.y() - 20 + rng.normal(0, 1));
+    } else {
+      p.target = Eigen::Vector2d(rng.uniform(-500, 1500), rng.uniform(-500, 1500));
+    }
+    data.push_back(p);
+  }
+  return data;
+}
+
 }  // namespace diachron_test

@@ -80,12 +80,14 @@ struct local_optimization_takes_stream<
 /// every thread count.
 /// Local optimisation of the best found at iteration i draws from RandomStream(seed, ~i).
 ///
-/// Bail-out test (options.bail_out_risk, on by default; robust/bail_out.hpp). Once there is a best
-/// model, a hypothesis is first scored on a random sample of the data, drawn once per run from
-/// RandomStream(seed, kScreeningStream), and dropped when Hoeffding's inequality shows its mean
-/// gain below the best's; survivors get the full pass with its exact early exit. The bound is
+/// Bail-out test (options.bail_out_risk, on by default; robust/bail_out.hpp). A hypothesis is first
+/// scored on a random sample of the data, drawn once per run from RandomStream(seed,
+/// kScreeningStream), and dropped when Hoeffding's inequality shows its mean gain below the best's,
+/// or, on a sample of part of the data, when it scores no more on the sample than the best did (0
+/// before there is a best); survivors get the full pass with its exact early exit. The bounds are
 /// the batch's, so the test too is the same for every thread count. Unlike the exact exit, it may
-/// drop (with probability at most bail_out_risk) a hypothesis that would have beaten the best.
+/// drop a hypothesis that would have beaten the best: with probability at most bail_out_risk at
+/// the Hoeffding checkpoints, and near-ties at the sample comparison (see bail_out.hpp).
 ///
 /// SPRT (options.sprt). Each batch uses one test, built before the batch from the best model so
 /// far (epsilon = its inlier rate) and delta (options.sprt_delta, then the inlier rate measured on
