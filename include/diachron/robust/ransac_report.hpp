@@ -39,7 +39,8 @@ struct RansacReport {
   std::size_t num_data = 0;
   /// Models returned by the minimal solver over all iterations.
   std::size_t hypotheses_generated = 0;
-  /// Hypotheses whose scoring stopped early because they could no longer beat the best.
+  /// Hypotheses whose scoring stopped early: they provably could no longer beat the best (the exact
+  /// bound), or the bail-out test or the SPRT dropped them.
   std::size_t hypotheses_stopped_early = 0;
   /// Of hypotheses_stopped_early, those the SPRT rejected (RansacOptions::sprt; 0 without it).
   std::size_t hypotheses_rejected_sprt = 0;
