@@ -36,6 +36,14 @@ diachron::Dsm synthetic_world(int w = 420, int h = 360) {
   return diachron::Dsm(std::move(z), diachron::GeoTransform::north_up(650000.0, 5200000.0, 5.0), "EPSG:32632");
 }
 
+// Master and secondary windows of one synthetic terrain, overlapping by 70 %.
+diachron::CoregistrationCase synthetic_case(std::uint64_t seed) {
+  const diachron::Dsm world = synthetic_world();
+  diachron::CoregistrationCaseOptions case_options;
+  case_options.overlap_min = case_options.overlap_max = 0.7;
+  return diachron::make_coregistration_case(world, world, case_options, seed);
+}
+
 }  // namespace
 
 TEST_CASE("rough_coregistration: recovers a known Helmert between two frames of one terrain", "[pipeline]") {
@@ -58,10 +66,7 @@ TEST_CASE("rough_coregistration: recovers a known Helmert between two frames of 
 }
 
 TEST_CASE("rough_coregistration: with rotation hypotheses forced, all four are reported", "[pipeline]") {
-  const diachron::Dsm world = synthetic_world();
-  diachron::CoregistrationCaseOptions case_options;
-  case_options.overlap_min = case_options.overlap_max = 0.7;
-  const auto c = diachron::make_coregistration_case(world, world, case_options, 3);
+  const auto c = synthetic_case(3);
   diachron::RoughCoregistrationOptions options;
   options.skip_rotations_if_invariant = false;
   options.image_kind = diachron::DsmImageKind::kLocalRelief;
@@ -77,10 +82,7 @@ TEST_CASE("rough_coregistration: with rotation hypotheses forced, all four are r
 
 TEST_CASE("rough_coregistration_images: the orthophoto mode lifts with the DSMs", "[pipeline]") {
   // Orthophotos are stand-ins here: the slope image on the DSM grid, as GeoImages.
-  const diachron::Dsm world = synthetic_world();
-  diachron::CoregistrationCaseOptions case_options;
-  case_options.overlap_min = case_options.overlap_max = 0.7;
-  const auto c = diachron::make_coregistration_case(world, world, case_options, 5);
+  const auto c = synthetic_case(5);
   diachron::RoughCoregistrationOptions options;
   const diachron::GeoImage m{diachron::slope_image(c.master), c.master.transform()};
   const diachron::GeoImage s{diachron::slope_image(c.secondary), c.secondary.transform()};

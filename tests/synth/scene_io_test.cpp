@@ -15,6 +15,8 @@
 
 #ifdef DIACHRON_HAVE_GDAL
 #include <diachron/synth/scene_io.hpp>
+
+#include "support/rasters.hpp"
 #endif
 
 using namespace diachron;
@@ -26,15 +28,6 @@ namespace {
 std::string temp_folder(const std::string& name) {
   const char* base = std::getenv("TMPDIR");
   return std::string(base ? base : "/tmp") + "/diachron_synth_" + name + "_" + std::to_string(::getpid());
-}
-
-bool same_float_raster(const Raster<float>& a, const Raster<float>& b) {
-  if (a.width() != b.width() || a.height() != b.height()) return false;
-  for (std::size_t i = 0; i < a.size(); ++i) {
-    const float x = a.data()[i], y = b.data()[i];
-    if (!(x == y || (std::isnan(x) && std::isnan(y)))) return false;
-  }
-  return true;
 }
 
 void check_pose(const Pose& a, const Pose& b) {
@@ -91,11 +84,11 @@ TEST_CASE("write_scene then read_scene gives the same scene", "[synth][io]") {
       check_pose(a.images[i].pose_epoch, b.images[i].pose_epoch);
       check_pose(a.images[i].estimated_pose, b.images[i].estimated_pose);
     }
-    CHECK(same_float_raster(a.dsm.heights(), b.dsm.heights()));
+    CHECK(diachron::test::same_values(a.dsm.heights(), b.dsm.heights()));
     CHECK(a.dsm.transform().c == b.dsm.transform().c);
-    CHECK(same_float_raster(a.true_surface.heights(), b.true_surface.heights()));
+    CHECK(diachron::test::same_values(a.true_surface.heights(), b.true_surface.heights()));
     CHECK(a.true_surface.transform().c == b.true_surface.transform().c);
-    CHECK(same_float_raster(a.albedo.values, b.albedo.values));
+    CHECK(diachron::test::same_values(a.albedo.values, b.albedo.values));
     REQUIRE(a.tie_points.size() == b.tie_points.size());
     for (std::size_t k = 0; k < a.tie_points.size(); ++k) {
       CHECK(a.tie_points[k].world == b.tie_points[k].world);

@@ -18,6 +18,7 @@
 #include <diachron/io/geotiff.hpp>
 #endif
 
+#include "support/rasters.hpp"
 #include "support/test_paths.hpp"
 
 using namespace diachron;
@@ -56,15 +57,6 @@ const Scene& small_scene() {
   return scene;
 }
 
-bool same_raster(const Raster<float>& a, const Raster<float>& b) {
-  if (a.width() != b.width() || a.height() != b.height()) return false;
-  for (std::size_t i = 0; i < a.size(); ++i) {
-    const float x = a.data()[i], y = b.data()[i];
-    if (!(x == y || (std::isnan(x) && std::isnan(y)))) return false;
-  }
-  return true;
-}
-
 bool same_pose(const Pose& a, const Pose& b) {
   return a.cam_from_world_rotation() == b.cam_from_world_rotation() && a.centre() == b.centre();
 }
@@ -80,8 +72,8 @@ void require_same_scene(const Scene& a, const Scene& b) {
       CHECK(same_pose(x.images[i].pose_world, y.images[i].pose_world));
       CHECK(same_pose(x.images[i].estimated_pose, y.images[i].estimated_pose));
     }
-    CHECK(same_raster(x.dsm.heights(), y.dsm.heights()));
-    CHECK(same_raster(x.true_surface.heights(), y.true_surface.heights()));
+    CHECK(diachron::test::same_values(x.dsm.heights(), y.dsm.heights()));
+    CHECK(diachron::test::same_values(x.true_surface.heights(), y.true_surface.heights()));
     CHECK(x.world_from_epoch.matrix() == y.world_from_epoch.matrix());
     REQUIRE(x.tie_points.size() == y.tie_points.size());
     for (std::size_t k = 0; k < x.tie_points.size(); ++k) {

@@ -208,21 +208,13 @@ class RansacProblem {
   double sample_score(const Model& model, std::size_t& residual_evaluations) const {
     if (screening_ == nullptr) return -std::numeric_limits<double>::infinity();
     const auto residual = make_residual_function(estimator_, model);
-    const std::size_t total = screening_->indices.size();
-    double values[kScoreBlock];
     double partial = 0.0;
     std::size_t inliers = 0;
-    // Block boundaries as in screen(): blocks never straddle a checkpoint.
     std::size_t done = 0;
     for (const std::size_t checkpoint : screening_->checkpoints) {
-      while (done < checkpoint) {
-        const std::size_t n = std::min(kScoreBlock, checkpoint - done);
-        evaluate(residual, screening_->indices.data(), done, n, values);
-        partial += block_gain(values, n, inliers);
-        done += n;
-      }
+      sample_to(residual, checkpoint, done, partial, inliers);
     }
-    residual_evaluations += total;
+    residual_evaluations += done;
     return partial;
   }
 
@@ -232,20 +224,18 @@ class RansacProblem {
                std::size_t& residual_evaluations) const {
     indices.clear();
     if (residuals) residuals->clear();
-    const auto residual = make_residual_function(estimator_, model);
-    double values[kScoreBlock];
     std::size_t found[kScoreBlock];
-    for (std::size_t begin = 0; begin < size_; begin += kScoreBlock) {
-      const std::size_t n = std::min(kScoreBlock, size_ - begin);
-      evaluate(residual, nullptr, begin, n, values);
-      const std::size_t count = compact_inliers(values, n, begin, found);
-      indices.insert(indices.end(), found, found + count);
-      if (residuals) {
-        for (std::size_t j = 0; j < count; ++j) {
-          residuals->push_back(std::sqrt(squared(values[found[j] - begin])));
-        }
-      }
-    }
+    in_blocks(make_residual_function(estimator_, model),
+              [&](std::size_t begin, std::size_t n, const double* values) {
+                const std::size_t count = compact_inliers(values, n, begin, found);
+                indices.insert(indices.end(), found, found + count);
+                if (residuals) {
+                  for (std::size_t j = 0; j < count; ++j) {
+                    residuals->push_back(std::sqrt(squared(values[found[j] - begin])));
+                  }
+                }
+                return true;
+              });
     residual_evaluations += size_;
   }
 
@@ -258,21 +248,19 @@ class RansacProblem {
     indices.clear();
     score = 0.0;
     sum_squares = 0.0;
-    const auto residual = make_residual_function(estimator_, model);
-    double values[kScoreBlock];
     std::size_t found[kScoreBlock];
-    for (std::size_t begin = 0; begin < size_; begin += kScoreBlock) {
-      const std::size_t n = std::min(kScoreBlock, size_ - begin);
-      evaluate(residual, nullptr, begin, n, values);
-      std::size_t inliers = 0;
-      score += block_gain(values, n, inliers);
-      const std::size_t count = compact_inliers(values, n, begin, found);
-      indices.insert(indices.end(), found, found + count);
-      for (std::size_t j = 0; j < count; ++j) {
-        mask[found[j]] = 1;
-        sum_squares += squared(values[found[j] - begin]);
-      }
-    }
+    in_blocks(make_residual_function(estimator_, model),
+              [&](std::size_t begin, std::size_t n, const double* values) {
+                std::size_t inliers = 0;
+                score += block_gain(values, n, inliers);
+                const std::size_t count = compact_inliers(values, n, begin, found);
+                indices.insert(indices.end(), found, found + count);
+                for (std::size_t j = 0; j < count; ++j) {
+                  mask[found[j]] = 1;
+                  sum_squares += squared(values[found[j] - begin]);
+                }
+                return true;
+              });
   }
 
  private:
@@ -378,7 +366,6 @@ class RansacProblem {
     const bool bound = bail && to_beat > 0.0;
     const bool early = sample.complete && scoring_.early_exit;
     const double bar = exit_bar(to_beat);
-    double values[kScoreBlock];
     double partial = 0.0;
     std::size_t inliers = 0;
     std::size_t done = 0;
@@ -392,12 +379,7 @@ class RansacProblem {
     for (const std::size_t checkpoint : sample.checkpoints) {
       const std::size_t done_before = done;
       const std::size_t inliers_before = inliers;
-      while (done < checkpoint) {
-        const std::size_t count = std::min(kScoreBlock, checkpoint - done);
-        evaluate(residual, sample.indices.data(), done, count, values);
-        partial += block_gain(values, count, inliers);
-        done += count;
-      }
+      sample_to(residual, checkpoint, done, partial, inliers);
       if (early && partial + static_cast<double>(size_ - done) <= bar) return stop();
       if (bound && sample.should_bail(partial, done, mean_to_beat)) {
         support.bailed_out = true;
@@ -429,33 +411,56 @@ class RansacProblem {
     Support support;
     const bool early = scoring_.early_exit;
     const double bar = exit_bar(to_beat);
-    double values[kScoreBlock];
     double score = 0.0;
     std::size_t inliers = 0;
     double log_ratio = 0.0;
-    for (std::size_t begin = 0; begin < size_; begin += kScoreBlock) {
-      const std::size_t count = std::min(kScoreBlock, size_ - begin);
+    bool stopped = false;
+    in_blocks(residual, [&](std::size_t begin, std::size_t count, const double* values) {
       const std::size_t end = begin + count;
-      evaluate(residual, nullptr, begin, count, values);
       std::size_t in = 0;
       score += block_gain(values, count, in);
       inliers += in;
-      if (early && score + static_cast<double>(size_ - end) <= bar) {
-        support.evaluated = end;
-        support.inliers_seen = inliers;
-        residual_evaluations += end;
-        return support;
-      }
-      if (test != nullptr && sprt_rejects(*test, in, count, log_ratio)) {
-        support.rejected_by_sprt = true;
-        support.evaluated = end;
-        support.inliers_seen = inliers;
-        residual_evaluations += end;
-        return support;
-      }
-    }
+      const bool exact_stop = early && score + static_cast<double>(size_ - end) <= bar;
+      const bool sprt_stop =
+          !exact_stop && test != nullptr && sprt_rejects(*test, in, count, log_ratio);
+      if (!exact_stop && !sprt_stop) return true;
+      support.rejected_by_sprt = sprt_stop;
+      support.evaluated = end;
+      support.inliers_seen = inliers;
+      residual_evaluations += end;
+      stopped = true;
+      return false;
+    });
+    if (stopped) return support;
     residual_evaluations += size_;
     return complete_support(score, inliers, size_);
+  }
+
+  // Evaluates all data in input order, a block of at most kScoreBlock at a time, and calls
+  // visit(begin, n, values) on each; stops early when visit returns false.
+  template <class F, class Visit>
+  void in_blocks(const F& residual, Visit&& visit) const {
+    double values[kScoreBlock];
+    for (std::size_t begin = 0; begin < size_; begin += kScoreBlock) {
+      const std::size_t n = std::min(kScoreBlock, size_ - begin);
+      evaluate(residual, nullptr, begin, n, values);
+      if (!visit(begin, n, values)) return;
+    }
+  }
+
+  // Scores the screening sample from position `done` up to `checkpoint`, in blocks that never
+  // straddle a checkpoint (so every caller sums the sample in the same order), adding to
+  // `partial` and `inliers` and advancing `done`.
+  template <class F>
+  void sample_to(const F& residual, std::size_t checkpoint, std::size_t& done, double& partial,
+                 std::size_t& inliers) const {
+    double values[kScoreBlock];
+    while (done < checkpoint) {
+      const std::size_t n = std::min(kScoreBlock, checkpoint - done);
+      evaluate(residual, screening_->indices.data(), done, n, values);
+      partial += block_gain(values, n, inliers);
+      done += n;
+    }
   }
 
   // The support of a hypothesis scored on all `evaluated` data.
