@@ -2,10 +2,15 @@
 /// make_scene: generates a synthetic multi-epoch scene and writes it to a folder (PNG images,
 /// GeoTIFF DSMs, truth text file; see docs/synthetic-scenes.md), then prints a summary.
 ///
-///   make_scene OUT_DIR [--seed N] [--dem PATH] [--images-per-epoch RxC] [--image-size WxH]
-///              [--epochs N] [--check-points N] [--dome M] [--offset X,Y] [--threads N]
+///   make_scene OUT_DIR [--preset plain|decades] [--seed N] [--dem PATH] [--images-per-epoch RxC]
+///              [--image-size WxH] [--epochs N] [--check-points N] [--dome M] [--offset X,Y] [--threads N]
+///
+/// `--preset decades` starts from SceneOptions::decades_apart() and the other flags apply on top of
+/// it, so that `make_scene OUT --preset decades --seed N` writes exactly the scene generate_scene()
+/// makes from decades_apart() with seed N.
 
 #include <chrono>
+#include <ctime>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
@@ -26,23 +31,29 @@ namespace {
 
 constexpr const char* kUsage =
     "usage: make_scene OUT_DIR [options]\n"
+    "  --preset NAME            plain (default: the small test scene) or decades (SceneOptions::decades_apart();\n"
+    "                           the options below apply on top of it)\n"
     "  --seed N                 random seed (default 0)\n"
     "  --dem PATH               real DEM (GeoTIFF) as terrain instead of procedural relief\n"
-    "  --images-per-epoch RxC   flight lines x images per line (default 2x3)\n"
-    "  --image-size WxH         image size in pixels (default 400x300; focal length scales with W)\n"
-    "  --epochs N               number of epochs, oldest first (default 2)\n"
-    "  --check-points N         check points wanted (default 100)\n"
-    "  --dome M                 dome bending of every epoch DSM, metres (default 0)\n"
+    "  --images-per-epoch RxC   flight lines x images per line of every epoch (plain default 2x3)\n"
+    "  --image-size WxH         image size in pixels (plain default 400x300; focal length scales with W)\n"
+    "  --epochs N               number of epochs, oldest first (plain only; default 2)\n"
+    "  --check-points N         check points wanted (plain default 100)\n"
+    "  --dome M                 dome bending of every epoch DSM, metres (plain default 0)\n"
     "  --offset X,Y             world X, Y of the scene centre, metres (default 0,0; procedural only)\n"
     "  --flying-height M        flying height of every epoch above the mean ground, metres\n"
     "  --threads N              worker threads, 0 = all cores (default 0)\n";
 
+// Flags that are not given leave the preset's value alone.
 struct Arguments {
   std::string out_dir;
+  std::string preset = "plain";
   std::uint64_t seed = 0;
   std::optional<std::string> dem;
-  int rows = 2, columns = 3, width = 400, height = 300, epochs = 2, check_points = 100;
-  double dome = 0.0, offset_x = 0.0, offset_y = 0.0, flying_height = 0.0;
+  std::optional<std::pair<int, int>> block, size;
+  std::optional<int> epochs, check_points;
+  std::optional<double> dome, flying_height;
+  std::optional<std::pair<double, double>> offset;
   std::size_t threads = 0;
 };
 
@@ -89,35 +100,35 @@ Arguments parse(int argc, char** argv) {
     if (arg.rfind("--", 0) == 0) {
       if (i + 1 >= args.size()) usage_error("missing value for " + arg);
       const std::string value = args[++i];
-      if (arg == "--seed") {
+      if (arg == "--preset") {
+        if (value != "plain" && value != "decades") usage_error("unknown preset '" + value + "' (plain or decades)");
+        a.preset = value;
+      } else if (arg == "--seed") {
         a.seed = parse_number<std::uint64_t>(value, arg);
       } else if (arg == "--dem") {
         a.dem = value;
       } else if (arg == "--images-per-epoch") {
         const auto [r, c] = split(value, 'x', arg);
-        a.rows = parse_number<int>(r, arg);
-        a.columns = parse_number<int>(c, arg);
-        if (a.rows < 1 || a.columns < 1) usage_error("--images-per-epoch needs positive RxC");
+        a.block = std::make_pair(parse_number<int>(r, arg), parse_number<int>(c, arg));
+        if (a.block->first < 1 || a.block->second < 1) usage_error("--images-per-epoch needs positive RxC");
       } else if (arg == "--image-size") {
         const auto [w, h] = split(value, 'x', arg);
-        a.width = parse_number<int>(w, arg);
-        a.height = parse_number<int>(h, arg);
-        if (a.width < 16 || a.height < 16) usage_error("--image-size needs at least 16x16");
+        a.size = std::make_pair(parse_number<int>(w, arg), parse_number<int>(h, arg));
+        if (a.size->first < 16 || a.size->second < 16) usage_error("--image-size needs at least 16x16");
       } else if (arg == "--epochs") {
         a.epochs = parse_number<int>(value, arg);
-        if (a.epochs < 1 || a.epochs > 100) usage_error("--epochs must be in [1, 100]");
+        if (*a.epochs < 1 || *a.epochs > 100) usage_error("--epochs must be in [1, 100]");
       } else if (arg == "--check-points") {
         a.check_points = parse_number<int>(value, arg);
-        if (a.check_points < 0) usage_error("--check-points must be >= 0");
+        if (*a.check_points < 0) usage_error("--check-points must be >= 0");
       } else if (arg == "--dome") {
         a.dome = parse_number<double>(value, arg);
       } else if (arg == "--offset") {
         const auto [x, y] = split(value, ',', arg);
-        a.offset_x = parse_number<double>(x, arg);
-        a.offset_y = parse_number<double>(y, arg);
+        a.offset = std::make_pair(parse_number<double>(x, arg), parse_number<double>(y, arg));
       } else if (arg == "--flying-height") {
         a.flying_height = parse_number<double>(value, arg);
-        if (!(a.flying_height > 0.0)) usage_error("--flying-height must be > 0");
+        if (!(*a.flying_height > 0.0)) usage_error("--flying-height must be > 0");
       } else if (arg == "--threads") {
         a.threads = static_cast<std::size_t>(parse_number<std::uint64_t>(value, arg));
       } else {
@@ -130,7 +141,53 @@ Arguments parse(int argc, char** argv) {
     }
   }
   if (a.out_dir.empty()) usage_error("missing OUT_DIR");
+  if (a.preset == "decades" && a.epochs && *a.epochs != 2) usage_error("--preset decades has two epochs");
   return a;
+}
+
+// The plain preset: the small test scene, with as many epochs as asked (the last one recent).
+diachron::SceneOptions plain_options(int epochs) {
+  diachron::SceneOptions options;
+  options.epochs.clear();
+  for (int e = 0; e < epochs; ++e) {
+    // The last epoch is the recent one; older ones are historical with their own headings.
+    const std::string name = "e" + std::to_string(e + 1);
+    diachron::EpochOptions epoch =
+        e + 1 == epochs && epochs > 1 ? diachron::EpochOptions::recent(name) : diachron::EpochOptions::historical(name);
+    if (e + 1 < epochs) epoch.heading_deg = -25.0 * e;
+    options.epochs.push_back(epoch);
+  }
+  return options;
+}
+
+diachron::SceneOptions scene_options(const Arguments& args) {
+  diachron::SceneOptions options =
+      args.preset == "decades" ? diachron::SceneOptions::decades_apart() : plain_options(args.epochs.value_or(2));
+  options.seed = args.seed;
+  options.threads = args.threads;
+  if (args.check_points) options.check_points = *args.check_points;
+  if (args.offset) {
+    options.terrain.centre_x_m = args.offset->first;
+    options.terrain.centre_y_m = args.offset->second;
+  }
+  for (diachron::EpochOptions& epoch : options.epochs) {
+    if (args.block) {
+      epoch.rows = args.block->first;
+      epoch.columns = args.block->second;
+    }
+    if (args.size) {
+      epoch.focal_px *= static_cast<double>(args.size->first) / epoch.image_width_px;
+      epoch.image_width_px = args.size->first;
+      epoch.image_height_px = args.size->second;
+    }
+    if (args.dome) epoch.dsm.dome_m = *args.dome;
+    if (args.flying_height) {
+      // Keep the ground sampling distance of the preset: the focal length follows the height.
+      epoch.focal_px *= *args.flying_height / epoch.flying_height_m;
+      epoch.flying_height_m = *args.flying_height;
+    }
+  }
+  return options;
 }
 
 }  // namespace
@@ -138,32 +195,7 @@ Arguments parse(int argc, char** argv) {
 int main(int argc, char** argv) {
   const Arguments args = parse(argc, argv);
   try {
-    diachron::SceneOptions options;
-    options.seed = args.seed;
-    options.threads = args.threads;
-    options.check_points = args.check_points;
-    options.terrain.centre_x_m = args.offset_x;
-    options.terrain.centre_y_m = args.offset_y;
-    options.epochs.clear();
-    for (int e = 0; e < args.epochs; ++e) {
-      // The last epoch is the recent one; older ones are historical with their own headings.
-      const std::string name = "e" + std::to_string(e + 1);
-      diachron::EpochOptions epoch =
-          e + 1 == args.epochs && args.epochs > 1 ? diachron::EpochOptions::recent(name) : diachron::EpochOptions::historical(name);
-      if (e + 1 < args.epochs) epoch.heading_deg = -25.0 * e;
-      epoch.rows = args.rows;
-      epoch.columns = args.columns;
-      epoch.focal_px *= static_cast<double>(args.width) / epoch.image_width_px;
-      epoch.image_width_px = args.width;
-      epoch.image_height_px = args.height;
-      epoch.dsm.dome_m = args.dome;
-      if (args.flying_height > 0.0) {
-        // Keep the ground sampling distance of the preset: the focal length follows the height.
-        epoch.focal_px *= args.flying_height / epoch.flying_height_m;
-        epoch.flying_height_m = args.flying_height;
-      }
-      options.epochs.push_back(epoch);
-    }
+    diachron::SceneOptions options = scene_options(args);
     if (args.dem) {
       diachron::GeoTiffReadOptions read;
       read.assume_untagged_nodata = true;
@@ -171,15 +203,19 @@ int main(int argc, char** argv) {
     }
 
     const auto t0 = std::chrono::steady_clock::now();
+    const std::clock_t c0 = std::clock();
     const diachron::Scene scene = diachron::generate_scene(options);
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    const double cpu_seconds = static_cast<double>(std::clock() - c0) / CLOCKS_PER_SEC;
     diachron::write_scene(scene, args.out_dir);
 
-    std::printf("scene written to %s (seed %llu, generated in %.2f s)\n", args.out_dir.c_str(),
-                static_cast<unsigned long long>(scene.seed), seconds);
-    std::printf("world: X [%.1f, %.1f] Y [%.1f, %.1f] m, reference height %.1f m, %zu buildings over all epochs\n",
+    std::printf("scene written to %s (preset %s, seed %llu, generated in %.2f s, %.2f s of CPU)\n",
+                args.out_dir.c_str(), args.preset.c_str(), static_cast<unsigned long long>(scene.seed), seconds,
+                cpu_seconds);
+    std::printf("world: X [%.1f, %.1f] Y [%.1f, %.1f] m, reference height %.1f m, %zu buildings and %zu trees "
+                "over all epochs\n",
                 scene.bounds.min_x, scene.bounds.max_x, scene.bounds.min_y, scene.bounds.max_y, scene.reference_height_m,
-                scene.landscape.buildings.size());
+                scene.landscape.buildings.size(), scene.landscape.trees.size());
     for (const diachron::SyntheticEpoch& epoch : scene.epochs) {
       const diachron::Helmert3& h = epoch.world_from_epoch;
       std::printf("%s: %zu images %dx%d px, f %.1f px, GSD %.2f m, DSM %dx%d (%zu valid), %zu tie points, "

@@ -23,6 +23,8 @@
 #include <diachron/core/raster.hpp>
 #include <diachron/core/types.hpp>
 #include <diachron/geometry/ray.hpp>
+#include <diachron/synth/compression.hpp>
+#include <diachron/synth/noise.hpp>
 #include <diachron/synth/texture.hpp>
 #include <diachron/terrain/dsm.hpp>
 #include <diachron/terrain/ray_dsm_intersection.hpp>
@@ -56,6 +58,29 @@ struct LookOptions {
   /// Intensity of pixels whose ray misses the surface (outside the scene).
   double background = 0.0;
 
+  // Effects of decades (all off by default; SceneOptions::decades_apart() sets them).
+  /// Share of the direct sunlight that cast shadows block (buildings, trees, relief), in [0, 1]:
+  /// 1 is physical (only the `1 - shading` sky light is left), 0 = no cast shadows.
+  double cast_shadow = 0.0;
+  /// How the film or sensor renders each land-cover class (may invert a class's contrast).
+  LandCoverResponse land_cover;
+  /// Steepness of the film's S-shaped characteristic curve (toe and shoulder), >= 0; 0 = linear.
+  double tone_curve = 0.0;
+  /// Amplitude of the low-frequency uneven exposure and development, a multiplicative field of
+  /// relative amplitude in [0, 0.9] (0 = none) and wavelength `unevenness_wavelength` image widths.
+  double exposure_unevenness = 0.0;
+  double unevenness_wavelength = 0.6;
+  /// Correlation length of the film grain (Gaussian sigma of the grain clumps), pixels; 0 = white
+  /// grain. Clumped grain makes blobs that a detector takes for features. >= 0.
+  double grain_size_px = 0.0;
+  /// Scanner lines: standard deviation of a per-row intensity offset, and the number of strong
+  /// stripes (a few rows brighter or darker) per image. >= 0.
+  double scan_line_sigma = 0.0;
+  int scan_stripes = 0;
+  /// JPEG-like lossy compression of the 8-bit image (8 x 8 DCT, the JPEG luminance table scaled by
+  /// quality as libjpeg does): quality in [1, 100], 0 = none.
+  int jpeg_quality = 0;
+
   void check() const {
     DIACHRON_CHECK(sun_elevation_deg > 0.0 && sun_elevation_deg <= 90.0,
                    "LookOptions::sun_elevation_deg must be in (0, 90], got " << sun_elevation_deg);
@@ -70,6 +95,17 @@ struct LookOptions {
     DIACHRON_CHECK(scratches >= 0 && scratches <= 1000, "LookOptions::scratches must be in [0, 1000]");
     DIACHRON_CHECK(dust_per_megapixel >= 0.0 && dust_per_megapixel <= 1e5,
                    "LookOptions::dust_per_megapixel must be in [0, 1e5]");
+    DIACHRON_CHECK(cast_shadow >= 0.0 && cast_shadow <= 1.0, "LookOptions::cast_shadow must be in [0, 1]");
+    land_cover.check();
+    DIACHRON_CHECK(tone_curve >= 0.0 && tone_curve <= 50.0, "LookOptions::tone_curve must be in [0, 50]");
+    DIACHRON_CHECK(exposure_unevenness >= 0.0 && exposure_unevenness <= 0.9,
+                   "LookOptions::exposure_unevenness must be in [0, 0.9]");
+    DIACHRON_CHECK(unevenness_wavelength > 0.0 && std::isfinite(unevenness_wavelength),
+                   "LookOptions::unevenness_wavelength must be > 0");
+    DIACHRON_CHECK(grain_size_px >= 0.0 && grain_size_px <= 20.0, "LookOptions::grain_size_px must be in [0, 20]");
+    DIACHRON_CHECK(scan_line_sigma >= 0.0 && scan_line_sigma <= 1.0 && scan_stripes >= 0 && scan_stripes <= 1000,
+                   "LookOptions: scan_line_sigma must be in [0, 1] and scan_stripes in [0, 1000]");
+    DIACHRON_CHECK(jpeg_quality >= 0 && jpeg_quality <= 100, "LookOptions::jpeg_quality must be in [0, 100]");
   }
 };
 
@@ -247,7 +283,11 @@ inline Raster<float> blur_radiance(const Raster<float>& in, double sigma, std::s
 inline constexpr double kRenderToleranceCells = 5e-2;
 
 /// The sun shading factor of every DSM cell (Lambertian, normalised to 1 on flat ground), on the
-/// DSM's grid: computed once per epoch instead of four height look-ups per pixel.
+/// DSM's grid: computed once per epoch instead of four height look-ups per pixel. With
+/// `look.cast_shadow` > 0, a ray from each cell towards the sun decides whether the cell lies in a
+/// cast shadow (of a building, a tree or the relief), which removes that share of the direct light:
+/// one shadow ray per DSM cell rather than per pixel, and bilinear sampling of the map gives the
+/// penumbra of about a cell.
 inline AlbedoMap shading_map(const Dsm& surface, const LookOptions& look, std::size_t threads = 0) {
   look.check();
   AlbedoMap out;
@@ -256,6 +296,10 @@ inline AlbedoMap shading_map(const Dsm& surface, const LookOptions& look, std::s
   out.values.resize(w, h, 1.0f);
   if (look.shading <= 0.0) return out;
   const Vec3 sun = detail::sun_direction(look);
+  std::optional<detail::SurfaceTracer> shadow_tracer;
+  if (look.cast_shadow > 0.0) shadow_tracer.emplace(surface);
+  // The ray starts a little above the cell so that it does not meet the surface it leaves.
+  const double lift = 0.02 * surface.min_cell_size();
   const GeoTransform& t = surface.transform();
   // Central differences on the grid, mapped to world X/Y through the geotransform's linear part.
   Eigen::Matrix2d pixel_from_world_linear;
@@ -273,8 +317,13 @@ inline AlbedoMap shading_map(const Dsm& surface, const LookOptions& look, std::s
       const Vec2 gradient = pixel_from_world_linear.transpose() * Vec2(dzdc, dzdr);
       if (!gradient.allFinite()) continue;
       const Vec3 n = Vec3(-gradient.x(), -gradient.y(), 1.0).normalized();
-      out.values(x, y) =
-          static_cast<float>((1.0 - look.shading) + look.shading * std::max(0.0, n.dot(sun)) / sun.z());
+      double direct = std::max(0.0, n.dot(sun)) / sun.z();
+      if (shadow_tracer && direct > 0.0) {
+        const Vec2 xy = t.pixel_to_world(Vec2(x, y));
+        const Ray3 ray{Vec3(xy.x(), xy.y(), static_cast<double>(z(x, y)) + lift), sun};
+        if (shadow_tracer->intersect(ray, kRenderToleranceCells)) direct *= 1.0 - look.cast_shadow;
+      }
+      out.values(x, y) = static_cast<float>((1.0 - look.shading) + look.shading * direct);
     }
   });
   return out;
@@ -351,19 +400,56 @@ inline Raster<std::uint8_t> develop_image(const Raster<float>& radiance, const L
   const int w = radiance.width(), h = radiance.height();
   Raster<float> img = detail::blur_radiance(radiance, look.blur_sigma_px, threads);
   const double half_diagonal = 0.5 * std::hypot(w - 1.0, h - 1.0);
+  // Clumped grain: white noise blurred to the grain size, rescaled to unit standard deviation.
+  Raster<float> clumps;
+  if (look.grain_sigma > 0.0 && look.grain_size_px > 0.0) {
+    clumps.resize(w, h);
+    parallel_for(static_cast<std::size_t>(h), threads, [&](std::size_t row) {
+      RandomStream noise(seed, detail::mix64(stream) ^ (0x434c554dULL + (row << 20)));
+      for (int x = 0; x < w; ++x) clumps(x, static_cast<int>(row)) = static_cast<float>(noise.normal());
+    });
+    clumps = detail::blur_radiance(clumps, look.grain_size_px, threads);
+    double sum2 = 0.0;
+    for (float v : clumps) sum2 += static_cast<double>(v) * v;
+    const auto norm = static_cast<float>(1.0 / std::sqrt(std::max(sum2 / (static_cast<double>(w) * h), 1e-30)));
+    for (float& v : clumps) v *= norm;
+  }
+  const std::uint64_t uneven_seed = detail::mix64(stream ^ 0x554e4556454eULL);
+  const double uneven_wavelength = look.unevenness_wavelength * std::max(w, 1);
+  // The S curve is a logistic of the exposure, rescaled to map 0 and 1 onto themselves.
+  const double k = look.tone_curve;
+  const double s_low = 1.0 / (1.0 + std::exp(0.5 * k)), s_high = 1.0 / (1.0 + std::exp(-0.5 * k));
   parallel_for(static_cast<std::size_t>(h), threads, [&](std::size_t row) {
     const int y = static_cast<int>(row);
     RandomStream grain(seed, detail::mix64(stream) ^ (0x4752414eULL + row));
     for (int x = 0; x < w; ++x) {
       double v = look.offset + look.gain * img(x, y);
+      if (look.exposure_unevenness > 0.0)
+        v *= 1.0 + look.exposure_unevenness * detail::fbm(uneven_seed, x, y, uneven_wavelength, 2);
       v = 0.5 + look.contrast * (v - 0.5);
+      if (k > 0.0) v = (1.0 / (1.0 + std::exp(-k * (v - 0.5))) - s_low) / (s_high - s_low);
       v = std::pow(std::clamp(v, 0.0, 1.0), 1.0 / look.gamma);
       const double r = std::hypot(x - 0.5 * (w - 1), y - 0.5 * (h - 1)) / std::max(half_diagonal, 1.0);
       v *= 1.0 - look.vignetting * r * r;
-      if (look.grain_sigma > 0.0) v += look.grain_sigma * grain.normal();
+      if (look.grain_sigma > 0.0) v += look.grain_sigma * (clumps.empty() ? grain.normal() : static_cast<double>(clumps(x, y)));
       img(x, y) = static_cast<float>(v);
     }
   });
+
+  if (look.scan_line_sigma > 0.0 || look.scan_stripes > 0) {
+    // A line scanner reads the film row by row: each row gets its own offset, a few rows a strong one.
+    RandomStream random(seed, detail::mix64(stream) ^ 0x5343414eULL);
+    std::vector<double> row_offset(static_cast<std::size_t>(h));
+    for (double& o : row_offset) o = look.scan_line_sigma * random.normal();
+    for (int s = 0; s < look.scan_stripes; ++s) {
+      const auto first = static_cast<int>(random.uniform_index(static_cast<std::size_t>(h)));
+      const int rows = 1 + static_cast<int>(random.uniform_index(3));
+      const double strength = (random.uniform01() < 0.5 ? 1.0 : -1.0) * random.uniform(0.04, 0.12);
+      for (int y = first; y < std::min(h, first + rows); ++y) row_offset[static_cast<std::size_t>(y)] += strength;
+    }
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) img(x, y) += static_cast<float>(row_offset[static_cast<std::size_t>(y)]);
+  }
 
   RandomStream random(seed, detail::mix64(stream) ^ 0x5343524154ULL);
   for (int s = 0; s < look.scratches; ++s) {
@@ -393,6 +479,7 @@ inline Raster<std::uint8_t> develop_image(const Raster<float>& radiance, const L
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x)
       out(x, y) = static_cast<std::uint8_t>(std::lround(255.0 * std::clamp(static_cast<double>(img(x, y)), 0.0, 1.0)));
+  if (look.jpeg_quality > 0) out = jpeg_like_compress(out, look.jpeg_quality, threads);
   return out;
 }
 

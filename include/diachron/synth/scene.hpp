@@ -81,6 +81,15 @@ struct SceneOptions {
   /// Worker threads: 0 = all cores. Results do not depend on it.
   std::size_t threads = 0;
 
+  /// Two epochs decades apart, as hard as real historical pairs (docs/synthetic-scenes.md has the
+  /// table of every value and what each effect does to matching): `e1`, a 1960s-like flight on
+  /// black-and-white film (1600 x 1200 px at 1.0 m, worn scan, poor DSM with a 3 m dome), and
+  /// `e2`, a recent flight at 0.5 m (JPEG-compressed), over a landscape that changed for decades
+  /// (most fields redrawn, new roads and housing, forests grown and cleared, trees grown and cut),
+  /// with cast shadows under two different suns and land-cover classes whose brightness the two
+  /// films render differently (trees dark on the old film, bright on the new one).
+  static SceneOptions decades_apart();
+
   void check() const {
     DIACHRON_CHECK(!epochs.empty(), "SceneOptions: need at least one epoch");
     for (std::size_t i = 0; i < epochs.size(); ++i) {
@@ -97,6 +106,91 @@ struct SceneOptions {
     DIACHRON_CHECK(visibility_tolerance_m > 0.0, "SceneOptions::visibility_tolerance_m must be > 0");
   }
 };
+
+inline SceneOptions SceneOptions::decades_apart() {
+  SceneOptions o;
+  o.check_points = 150;
+
+  // Landscape: fewer, more clustered buildings than the small test scene (whose density suits a
+  // village-sized area), trees with height, and the changes of about forty years.
+  o.terrain.building_density_per_km2 = 110.0;
+  o.terrain.village_fraction = 0.8;
+  o.terrain.vegetation.forest_fraction = 0.12;
+  o.terrain.vegetation.single_trees_per_km2 = 60.0;
+  o.terrain.vegetation.hedgerows_per_km2 = 8.0;
+  o.changes.changed_field_fraction = 0.85;
+  o.changes.redrawn_layout_fraction = 0.5;
+  o.changes.consolidation = 1.8;
+  o.changes.seasonal_shift = 0.12;
+  o.changes.removed_building_fraction = 0.2;
+  o.changes.new_building_fraction = 0.7;
+  o.changes.new_villages_per_km2 = 0.6;
+  o.changes.new_roads = 2;
+  o.changes.tree_growth = 0.35;
+  o.changes.cut_tree_fraction = 0.35;
+  o.changes.new_tree_fraction = 0.6;
+  o.changes.cleared_stand_fraction = 0.25;
+  o.changes.new_stand_fraction = 0.3;
+  o.texture.texel_m = 0.5;  // half the recent GSD
+  o.texture.bush_removal_probability = 0.5;
+
+  // e1: wide-angle film camera (f / width 0.66), 1.0 m GSD, a 2 x 2 block.
+  EpochOptions& e1 = o.epochs[0];
+  e1 = EpochOptions::historical("e1");
+  e1.image_width_px = 1600;
+  e1.image_height_px = 1200;
+  e1.focal_px = 1056.0;
+  e1.flying_height_m = 1056.0;
+  e1.rows = 2;
+  e1.columns = 2;
+  e1.principal_point_offset_px = Eigen::Vector2d(6.0, -8.0);
+  e1.estimated_principal_point_error_px = Eigen::Vector2d(8.0, -4.0);
+  e1.tie_points = 1500;
+  e1.look.sun_azimuth_deg = 125.0;
+  e1.look.sun_elevation_deg = 35.0;
+  e1.look.shading = 0.6;
+  e1.look.cast_shadow = 0.85;
+  // Old film renders vegetation dark and inverts the crop contrast of a near-infrared sensor.
+  e1.look.land_cover.gain = {-0.8, 0.6, 0.8, 1.1, 0.9};
+  e1.look.land_cover.offset = {0.75, 0.05, 0.0, 0.05, 0.05};
+  e1.look.tone_curve = 6.0;
+  e1.look.exposure_unevenness = 0.25;
+  e1.look.grain_sigma = 0.04;
+  e1.look.grain_size_px = 1.2;
+  e1.look.scan_line_sigma = 0.008;
+  e1.look.scan_stripes = 4;
+  e1.look.scratches = 6;
+  e1.look.dust_per_megapixel = 400.0;
+  e1.look.blur_sigma_px = 1.0;
+  e1.dsm.noise_sigma_m = 0.5;
+  e1.dsm.ripple_m = 1.0;
+  e1.dsm.hole_fraction = 0.08;
+  e1.dsm.hole_radius_m = 20.0;
+  e1.dsm.dome_m = 3.0;
+
+  // e2: a recent frame camera (f / width 1.05), 0.5 m GSD, a 3 x 3 block over the same study
+  // area as e1, JPEG delivery.
+  EpochOptions& e2 = o.epochs[1];
+  e2 = EpochOptions::recent("e2");
+  e2.image_width_px = 1600;
+  e2.image_height_px = 1200;
+  e2.focal_px = 1680.0;
+  e2.flying_height_m = 840.0;
+  e2.rows = 3;
+  e2.columns = 3;
+  e2.principal_point_offset_px = Eigen::Vector2d(-4.0, 4.0);
+  e2.estimated_principal_point_error_px = Eigen::Vector2d(-3.0, 5.0);
+  e2.block_offset_m = Eigen::Vector2d(40.0, -30.0);
+  e2.tie_points = 1500;
+  e2.look.sun_azimuth_deg = 230.0;
+  e2.look.sun_elevation_deg = 55.0;
+  e2.look.shading = 0.6;
+  e2.look.cast_shadow = 0.85;
+  e2.look.land_cover.gain = {1.0, 0.9, 2.6, 0.8, 1.0};
+  e2.look.land_cover.offset = {0.0, 0.05, 0.2, 0.0, 0.0};
+  e2.look.jpeg_quality = 75;
+  return o;
+}
 
 /// A generated scene: the landscape, the epochs with their truth, the check points.
 struct Scene {
@@ -439,7 +533,8 @@ inline Scene generate_scene(const SceneOptions& options) {
     TextureOptions texture = options.texture;
     texture.threads = options.threads;
     epoch.albedo = render_albedo(scene.landscape, static_cast<int>(e), bounds, texture,
-                                 detail::mix64(seed ^ detail::stream_id(detail::SynthStream::texture, 0)));
+                                 detail::mix64(seed ^ detail::stream_id(detail::SynthStream::texture, 0)),
+                                 o.look.land_cover);
     const AlbedoMap shading = shading_map(surfaces[e], o.look, options.threads);
     const PixelDirections directions = PixelDirections::of(epoch.camera, options.threads);
     for (std::size_t i = 0; i < epoch.images.size(); ++i) {

@@ -37,6 +37,46 @@ enum class Landform {
   valley,  ///< a Gaussian trough across the scene, at a random azimuth
 };
 
+/// Trees as 3D objects of the true surface (so of the DSMs too): forest stands, hedgerows and
+/// single trees. Every count defaults to 0 (no trees), which keeps the plain test scene as it was;
+/// SceneOptions::decades_apart() turns them on. Lengths and heights in metres.
+struct VegetationOptions {
+  /// Share of the scene area covered by forest stands. In [0, 0.9].
+  double forest_fraction = 0.0;
+  /// Typical diameter of a forest stand (each is drawn 0.6 to 1.4 times this, with a ragged edge). > 0.
+  double stand_diameter_m = 220.0;
+  /// Distance between neighbouring trees of a stand (jittered grid). > 0.
+  double forest_tree_spacing_m = 6.0;
+  /// Free-standing trees per square kilometre. >= 0.
+  double single_trees_per_km2 = 0.0;
+  /// Hedgerows (straight rows of trees) per square kilometre. >= 0.
+  double hedgerows_per_km2 = 0.0;
+  /// Typical hedgerow length (drawn 0.5 to 1.5 times this) and tree spacing along it. > 0.
+  double hedgerow_length_m = 160.0;
+  double hedgerow_tree_spacing_m = 4.0;
+  /// Tree heights, uniform in [min, max]. 0 < min <= max.
+  double tree_min_height_m = 8.0;
+  double tree_max_height_m = 22.0;
+  /// Crown radius as a fraction of the tree height (about 0.2 for broadleaves). > 0.
+  double crown_ratio = 0.22;
+
+  bool any() const { return forest_fraction > 0.0 || single_trees_per_km2 > 0.0 || hedgerows_per_km2 > 0.0; }
+
+  void check() const {
+    DIACHRON_CHECK(forest_fraction >= 0.0 && forest_fraction <= 0.9, "VegetationOptions::forest_fraction must be in [0, 0.9]");
+    DIACHRON_CHECK(stand_diameter_m > 0.0 && forest_tree_spacing_m > 0.0,
+                   "VegetationOptions: stand diameter and tree spacing must be > 0");
+    DIACHRON_CHECK(single_trees_per_km2 >= 0.0 && single_trees_per_km2 <= 1e5 && hedgerows_per_km2 >= 0.0 &&
+                       hedgerows_per_km2 <= 1e4,
+                   "VegetationOptions: tree and hedgerow densities must be >= 0");
+    DIACHRON_CHECK(hedgerow_length_m > 0.0 && hedgerow_tree_spacing_m > 0.0,
+                   "VegetationOptions: hedgerow length and spacing must be > 0");
+    DIACHRON_CHECK(tree_min_height_m > 0.0 && tree_min_height_m <= tree_max_height_m && tree_max_height_m <= 100.0,
+                   "VegetationOptions: need 0 < tree_min_height_m <= tree_max_height_m <= 100");
+    DIACHRON_CHECK(crown_ratio > 0.0 && crown_ratio <= 1.0, "VegetationOptions::crown_ratio must be in (0, 1]");
+  }
+};
+
 /// Options of the ground surface and of the objects on it. Lengths in metres, heights in metres.
 struct TerrainOptions {
   /// Cell size of the world DSM grid, metres. Rendering samples this surface, so it should be
@@ -82,6 +122,8 @@ struct TerrainOptions {
   double gable_fraction = 0.5;
   /// Also put buildings on a real DEM (its heights usually contain buildings already).
   bool buildings_on_real_dem = true;
+  /// Trees (none by default).
+  VegetationOptions vegetation;
   /// CRS text stored in the world DSM ("EPSG:32631", WKT, or empty for a local frame). A real
   /// DEM keeps its own CRS.
   std::string crs;
@@ -112,6 +154,7 @@ struct TerrainOptions {
     DIACHRON_CHECK(building_min_height_m > 0.0 && building_min_height_m <= building_max_height_m,
                    "TerrainOptions: need 0 < building_min_height_m <= building_max_height_m");
     DIACHRON_CHECK(gable_fraction >= 0.0 && gable_fraction <= 1.0, "TerrainOptions::gable_fraction must be in [0, 1]");
+    vegetation.check();
   }
 };
 
@@ -126,6 +169,28 @@ struct ChangeOptions {
   /// Amplitude of the seasonal albedo shift of vegetated fields (albedo units, 0..1). >= 0.
   double seasonal_shift = 0.08;
 
+  // Changes of decades (all 0 by default: the rates above are those of a few years).
+  /// Fraction of the land, in square parcels of `layout_region_m`, whose field boundaries are
+  /// redrawn at each new epoch (land consolidation), fields there `consolidation` times larger. In [0, 1].
+  double redrawn_layout_fraction = 0.0;
+  double layout_region_m = 350.0;
+  double consolidation = 1.6;
+  /// New straight roads at each new epoch. >= 0.
+  int new_roads = 0;
+  /// New villages (housing estates) per square kilometre at each new epoch; new buildings cluster
+  /// in them as in the old villages. >= 0.
+  double new_villages_per_km2 = 0.0;
+  /// Relative height (and crown) growth of a tree from one epoch to the next, e.g. 0.3. >= 0.
+  double tree_growth = 0.0;
+  /// Fraction of free-standing and hedgerow trees cut at each new epoch. In [0, 1].
+  double cut_tree_fraction = 0.0;
+  /// New free-standing trees at each new epoch, as a fraction of the initial ones. >= 0.
+  double new_tree_fraction = 0.0;
+  /// Fraction of forest stands cleared at each new epoch. In [0, 1].
+  double cleared_stand_fraction = 0.0;
+  /// New (young) forest stands at each new epoch, as a fraction of the initial ones. >= 0.
+  double new_stand_fraction = 0.0;
+
   void check() const {
     DIACHRON_CHECK(changed_field_fraction >= 0.0 && changed_field_fraction <= 1.0,
                    "ChangeOptions::changed_field_fraction must be in [0, 1]");
@@ -134,6 +199,20 @@ struct ChangeOptions {
     DIACHRON_CHECK(new_building_fraction >= 0.0 && new_building_fraction <= 10.0,
                    "ChangeOptions::new_building_fraction must be in [0, 10]");
     DIACHRON_CHECK(seasonal_shift >= 0.0 && seasonal_shift <= 1.0, "ChangeOptions::seasonal_shift must be in [0, 1]");
+    DIACHRON_CHECK(redrawn_layout_fraction >= 0.0 && redrawn_layout_fraction <= 1.0,
+                   "ChangeOptions::redrawn_layout_fraction must be in [0, 1]");
+    DIACHRON_CHECK(layout_region_m > 0.0 && consolidation >= 0.25 && consolidation <= 10.0,
+                   "ChangeOptions: layout_region_m must be > 0 and consolidation in [0.25, 10]");
+    DIACHRON_CHECK(new_roads >= 0 && new_roads <= 1000, "ChangeOptions::new_roads must be in [0, 1000]");
+    DIACHRON_CHECK(new_villages_per_km2 >= 0.0 && new_villages_per_km2 <= 100.0,
+                   "ChangeOptions::new_villages_per_km2 must be in [0, 100]");
+    DIACHRON_CHECK(tree_growth >= 0.0 && tree_growth <= 5.0, "ChangeOptions::tree_growth must be in [0, 5]");
+    DIACHRON_CHECK(cut_tree_fraction >= 0.0 && cut_tree_fraction <= 1.0 && cleared_stand_fraction >= 0.0 &&
+                       cleared_stand_fraction <= 1.0,
+                   "ChangeOptions: cut and cleared fractions must be in [0, 1]");
+    DIACHRON_CHECK(new_tree_fraction >= 0.0 && new_tree_fraction <= 10.0 && new_stand_fraction >= 0.0 &&
+                       new_stand_fraction <= 10.0,
+                   "ChangeOptions: new tree and stand fractions must be in [0, 10]");
   }
 };
 
@@ -142,6 +221,9 @@ struct Road {
   Vec2 point = Vec2::Zero();
   Vec2 direction = Vec2::UnitX();
   double width = 7.0;
+  int first_epoch = 0;  ///< first epoch (index) in which the road exists
+
+  bool exists_in(int epoch) const { return epoch >= first_epoch; }
 
   /// Distance of world (X, Y) from the road's centre line, metres.
   double distance(const Vec2& xy) const {
@@ -184,6 +266,34 @@ struct Building {
   double radius() const { return std::hypot(half_length, half_width); }
 };
 
+/// A tree with an ellipsoidal crown on a short bare trunk, existing in epochs [first_epoch,
+/// last_epoch] and growing by `growth` (relative) from each epoch to the next.
+struct Tree {
+  Vec2 centre = Vec2::Zero();  ///< world X/Y of the trunk, metres
+  double base_z = 0.0;         ///< ground height at the trunk, metres
+  double height = 15.0;        ///< height in its first epoch, metres
+  double crown_ratio = 0.22;   ///< crown radius / height
+  double growth = 0.0;         ///< relative growth per epoch
+  float albedo = 0.15f;        ///< mean crown reflectance, 0..1
+  std::uint64_t seed = 0;      ///< crown texture seed (combined with the epoch: crowns change)
+  int first_epoch = 0;
+  int last_epoch = std::numeric_limits<int>::max();
+
+  bool exists_in(int epoch) const { return epoch >= first_epoch && epoch <= last_epoch; }
+  /// Height in `epoch`, metres.
+  double height_in(int epoch) const { return height * std::pow(1.0 + growth, std::max(0, epoch - first_epoch)); }
+  /// Crown radius in `epoch`, metres.
+  double crown_radius(int epoch) const { return crown_ratio * height_in(epoch); }
+  /// Crown top at horizontal distance `r` from the trunk in `epoch`, or NaN outside the crown.
+  /// The crown is the upper half of an ellipsoid whose equator is 55 % of the height up.
+  double crown_z(double r, int epoch) const {
+    const double h = height_in(epoch), radius = crown_ratio * h;
+    if (!(r < radius)) return std::numeric_limits<double>::quiet_NaN();
+    const double q = r / radius;
+    return base_z + h * (0.55 + 0.45 * std::sqrt(1.0 - q * q));
+  }
+};
+
 /// The world-frame description of a multi-epoch scene: ground surface and objects.
 struct Landscape {
   /// Bare ground (no buildings), world frame, no holes. Its grid is the grid of every epoch's
@@ -191,6 +301,7 @@ struct Landscape {
   Dsm ground;
   std::vector<Road> roads;
   std::vector<Building> buildings;
+  std::vector<Tree> trees;
   /// Seed of the field pattern (fields are a hash of their cell, not stored).
   std::uint64_t field_seed = 0;
   /// Field size (Voronoi site spacing), metres.
@@ -201,6 +312,11 @@ struct Landscape {
   double changed_field_fraction = 0.0;
   /// Seasonal albedo offset of each epoch (albedo units), multiplied by a per-field response.
   std::vector<double> season_shift;
+  /// Field layout changes (ChangeOptions): per-region probability of a redrawn layout at each
+  /// epoch after the first, region size and the field size factor of a redrawn layout.
+  double redrawn_layout_fraction = 0.0;
+  double layout_region_m = 350.0;
+  double consolidation = 1.6;
 };
 
 namespace detail {
@@ -262,6 +378,110 @@ inline bool clear_of_roads(const std::vector<Road>& roads, const Vec2& xy, doubl
   for (const Road& r : roads)
     if (r.distance(xy) < radius + 0.5 * r.width + 2.0) return false;
   return true;
+}
+
+/// Whether a disc of `radius` at `xy` is clear of every building of any epoch (trees never grow
+/// through walls, so the true surface stays a clean union of objects).
+inline bool clear_of_buildings(const std::vector<Building>& buildings, const Vec2& xy, double radius) {
+  for (const Building& b : buildings)
+    if ((b.centre - xy).squaredNorm() < (b.radius() + radius + 1.0) * (b.radius() + radius + 1.0)) return false;
+  return true;
+}
+
+/// Plants forest stands, hedgerows and single trees (VegetationOptions) and their history over
+/// the epochs (ChangeOptions): growth, cutting, clearing, new trees and young stands.
+inline void plant_trees(Landscape& land, const TerrainOptions& options, const ChangeOptions& changes,
+                        const WorldBounds& bounds, int epoch_count, std::uint64_t seed) {
+  const VegetationOptions& v = options.vegetation;
+  RandomStream random(seed, 6);
+  const double width_m = bounds.max_x - bounds.min_x, height_m = bounds.max_y - bounds.min_y;
+  const double area_km2 = width_m * height_m * 1e-6;
+  const auto inside = [&](const Vec2& xy, double reach) {
+    const double margin = 2.0 * options.cell_m + reach;
+    return xy.x() > bounds.min_x + margin && xy.x() < bounds.max_x - margin && xy.y() > bounds.min_y + margin &&
+           xy.y() < bounds.max_y - margin;
+  };
+  const auto add_tree = [&](const Vec2& xy, double height, int first_epoch) {
+    Tree t;
+    t.centre = xy;
+    t.height = height;
+    t.crown_ratio = v.crown_ratio * random.uniform(0.8, 1.25);
+    t.growth = changes.tree_growth * random.uniform(0.5, 1.5);
+    t.albedo = static_cast<float>(random.uniform(0.1, 0.24));
+    t.seed = random.next_u64();
+    t.first_epoch = first_epoch;
+    const double reach = t.crown_ratio * height * std::pow(1.0 + t.growth, epoch_count);
+    if (!inside(xy, reach) || !detail::clear_of_roads(land.roads, xy, reach) || !clear_of_buildings(land.buildings, xy, reach))
+      return false;
+    t.base_z = land.ground.height_at(xy);
+    if (!std::isfinite(t.base_z)) return false;
+    land.trees.push_back(t);
+    return true;
+  };
+  const auto stand = [&](int first_epoch, double height_scale) {
+    const Vec2 centre(random.uniform(bounds.min_x, bounds.max_x), random.uniform(bounds.min_y, bounds.max_y));
+    const double radius = 0.5 * v.stand_diameter_m * random.uniform(0.6, 1.4);
+    const std::uint64_t edge_seed = random.next_u64();
+    const double mean_height = random.uniform(v.tree_min_height_m, v.tree_max_height_m);
+    const std::size_t first = land.trees.size();
+    const double s = v.forest_tree_spacing_m;
+    const int n = static_cast<int>(std::ceil(radius * 1.4 / s));
+    for (int j = -n; j <= n; ++j)
+      for (int i = -n; i <= n; ++i) {
+        const Vec2 xy = centre + s * Vec2(i + random.uniform(-0.35, 0.35), j + random.uniform(-0.35, 0.35));
+        const Vec2 d = xy - centre;
+        // A ragged edge: the stand's radius varies by +-30 % with direction and position.
+        const double edge = radius * (1.0 + 0.3 * fbm(edge_seed, d.x(), d.y(), 0.6 * radius, 2));
+        if (d.norm() > edge) continue;
+        const double h = std::clamp(mean_height * random.uniform(0.8, 1.2), v.tree_min_height_m, v.tree_max_height_m);
+        add_tree(xy, h * height_scale, first_epoch);
+      }
+    return std::make_pair(first, land.trees.size());
+  };
+
+  // Forest stands of the first epoch.
+  const double stand_area_km2 = kPi * 0.25 * v.stand_diameter_m * v.stand_diameter_m * 1e-6;
+  const auto stand_count = static_cast<std::size_t>(std::llround(v.forest_fraction * area_km2 / stand_area_km2));
+  std::vector<std::pair<std::size_t, std::size_t>> stands;
+  for (std::size_t k = 0; k < stand_count; ++k) stands.push_back(stand(0, 1.0));
+  // Hedgerows: straight rows of trees, some gaps.
+  const auto hedgerow_count = static_cast<std::size_t>(std::llround(v.hedgerows_per_km2 * area_km2));
+  std::vector<std::size_t> cuttable;
+  for (std::size_t k = 0; k < hedgerow_count; ++k) {
+    const Vec2 start(random.uniform(bounds.min_x, bounds.max_x), random.uniform(bounds.min_y, bounds.max_y));
+    const double azimuth = random.uniform(0.0, kPi);
+    const Vec2 dir(std::cos(azimuth), std::sin(azimuth));
+    const double length = v.hedgerow_length_m * random.uniform(0.5, 1.5);
+    for (double t = 0.0; t <= length; t += v.hedgerow_tree_spacing_m * random.uniform(0.8, 1.25)) {
+      if (random.uniform01() < 0.15) continue;
+      const Vec2 xy = start + t * dir + random.normal(0.0, 0.4) * Vec2(-dir.y(), dir.x());
+      if (add_tree(xy, 0.8 * random.uniform(v.tree_min_height_m, v.tree_max_height_m), 0)) cuttable.push_back(land.trees.size() - 1);
+    }
+  }
+  // Free-standing trees.
+  const auto single_count = static_cast<std::size_t>(std::llround(v.single_trees_per_km2 * area_km2));
+  const auto single = [&](int first_epoch, double height_scale) {
+    const Vec2 xy(random.uniform(bounds.min_x, bounds.max_x), random.uniform(bounds.min_y, bounds.max_y));
+    if (add_tree(xy, height_scale * random.uniform(v.tree_min_height_m, v.tree_max_height_m), first_epoch))
+      cuttable.push_back(land.trees.size() - 1);
+  };
+  for (std::size_t k = 0; k < single_count; ++k) single(0, 1.0);
+
+  // History: at each new epoch some trees are cut and stands cleared, new trees and young stands appear.
+  const auto new_singles = static_cast<std::size_t>(std::llround(changes.new_tree_fraction * static_cast<double>(single_count)));
+  const auto new_stands = static_cast<std::size_t>(std::llround(changes.new_stand_fraction * static_cast<double>(stand_count)));
+  for (int e = 1; e < epoch_count; ++e) {
+    for (std::size_t index : cuttable) {
+      Tree& t = land.trees[index];
+      if (t.exists_in(e) && t.first_epoch < e && random.uniform01() < changes.cut_tree_fraction) t.last_epoch = e - 1;
+    }
+    for (const auto& [first, last] : stands)
+      if (first < last && land.trees[first].exists_in(e) && land.trees[first].first_epoch < e &&
+          random.uniform01() < changes.cleared_stand_fraction)
+        for (std::size_t i = first; i < last; ++i) land.trees[i].last_epoch = e - 1;
+    for (std::size_t k = 0; k < new_singles; ++k) single(e, 0.5);
+    for (std::size_t k = 0; k < new_stands; ++k) stands.push_back(stand(e, 0.45));
+  }
 }
 
 }  // namespace detail
@@ -364,6 +584,18 @@ inline Landscape make_landscape(const TerrainOptions& options, const ChangeOptio
       road.width = options.road_width_m;
       land.roads.push_back(road);
     }
+    // Roads built in later epochs (own stream, so that the first roads do not depend on them).
+    RandomStream later(seed, 5);
+    for (int e = 1; e < epoch_count; ++e)
+      for (int i = 0; i < changes.new_roads; ++i) {
+        Road road;
+        road.point = Vec2(bounds.min_x + width_m * later.uniform(0.15, 0.85), bounds.min_y + height_m * later.uniform(0.15, 0.85));
+        const double azimuth = later.uniform(0.0, kPi);
+        road.direction = Vec2(std::cos(azimuth), std::sin(azimuth));
+        road.width = options.road_width_m;
+        road.first_epoch = e;
+        land.roads.push_back(road);
+      }
   }
 
   // Buildings: villages (clusters sharing an orientation) and scattered farms; placement rejects
@@ -423,7 +655,13 @@ inline Landscape make_landscape(const TerrainOptions& options, const ChangeOptio
       }
     };
     for (std::size_t i = 0; i < initial; ++i) place(0);
+    const auto new_villages = static_cast<std::size_t>(std::llround(changes.new_villages_per_km2 * area_km2));
     for (int e = 1; e < epoch_count; ++e) {
+      // Housing estates: new buildings cluster in the new villages as much as in the old ones.
+      for (std::size_t v = 0; v < new_villages; ++v)
+        villages.emplace_back(Vec2(bounds.min_x + width_m * random.uniform(0.1, 0.9),
+                                   bounds.min_y + height_m * random.uniform(0.1, 0.9)),
+                              random.uniform(0.0, kPi));
       for (Building& b : land.buildings)
         if (b.exists_in(e) && b.first_epoch < e && random.uniform01() < changes.removed_building_fraction)
           b.last_epoch = e - 1;
@@ -436,10 +674,14 @@ inline Landscape make_landscape(const TerrainOptions& options, const ChangeOptio
     for (int e = 0; e < epoch_count; ++e)
       land.season_shift.push_back(changes.seasonal_shift * random.uniform(-1.0, 1.0));
   }
+  land.redrawn_layout_fraction = changes.redrawn_layout_fraction;
+  land.layout_region_m = changes.layout_region_m;
+  land.consolidation = changes.consolidation;
+  if (options.vegetation.any()) detail::plant_trees(land, options, changes, bounds, epoch_count, seed);
   return land;
 }
 
-/// The true surface of `epoch` in the world frame: the ground with that epoch's buildings, on the
+/// The true surface of `epoch` in the world frame: the ground with that epoch's buildings and trees, on the
 /// ground's grid. Roofs are sampled at cell centres, so walls are one cell wide in the bilinear
 /// surface.
 inline Dsm surface_dsm(const Landscape& land, int epoch) {
@@ -460,6 +702,21 @@ inline Dsm surface_dsm(const Landscape& land, int epoch) {
         const Vec2 xy = t.pixel_to_world(Vec2(x, y));
         if (!b.contains(xy)) continue;
         heights(x, y) = std::max(heights(x, y), static_cast<float>(b.roof_z(xy)));
+      }
+  }
+  for (const Tree& tree : land.trees) {
+    if (!tree.exists_in(epoch)) continue;
+    const double r = tree.crown_radius(epoch);
+    const Vec2 p0 = t.world_to_pixel(tree.centre - Vec2(r, -r));
+    const Vec2 p1 = t.world_to_pixel(tree.centre + Vec2(r, -r));
+    const int x0 = std::max(0, static_cast<int>(std::floor(std::min(p0.x(), p1.x()))));
+    const int x1 = std::min(heights.width() - 1, static_cast<int>(std::ceil(std::max(p0.x(), p1.x()))));
+    const int y0 = std::max(0, static_cast<int>(std::floor(std::min(p0.y(), p1.y()))));
+    const int y1 = std::min(heights.height() - 1, static_cast<int>(std::ceil(std::max(p0.y(), p1.y()))));
+    for (int y = y0; y <= y1; ++y)
+      for (int x = x0; x <= x1; ++x) {
+        const double z = tree.crown_z((t.pixel_to_world(Vec2(x, y)) - tree.centre).norm(), epoch);
+        if (std::isfinite(z)) heights(x, y) = std::max(heights(x, y), static_cast<float>(z));
       }
   }
   return Dsm(std::move(heights), t, land.ground.crs());

@@ -6,6 +6,7 @@
 /// changed (re-cropped fields, new and removed buildings, bushes, a seasonal shift).
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -61,6 +62,36 @@ struct TextureOptions {
     DIACHRON_CHECK(bush_removal_probability >= 0.0 && bush_removal_probability <= 1.0,
                    "TextureOptions::bush_removal_probability must be in [0, 1]");
     DIACHRON_CHECK(road_albedo >= 0.0 && road_albedo <= 1.0, "TextureOptions::road_albedo must be in [0, 1]");
+  }
+};
+
+/// Land-cover classes that a film or a sensor renders differently (LandCoverResponse).
+enum class LandCover : int {
+  crop = 0,   ///< ploughed and cropped fields
+  grass = 1,  ///< meadows, the ground between orchard trees
+  woody = 2,  ///< trees, hedges, bushes, orchard crowns
+  road = 3,   ///< roads and their verges
+  roof = 4,   ///< roofs
+};
+inline constexpr int kLandCoverCount = 5;
+
+/// How one epoch's film or sensor renders each land-cover class: albedo' = offset + gain * albedo
+/// per class, before the fine texture noise. Old orthochromatic or panchromatic film renders
+/// vegetation dark, a modern sensor with near-infrared response renders it bright: a negative
+/// gain inverts a class's contrast. The identity (the default) leaves the albedo unchanged.
+struct LandCoverResponse {
+  std::array<double, kLandCoverCount> gain = {1.0, 1.0, 1.0, 1.0, 1.0};
+  std::array<double, kLandCoverCount> offset = {0.0, 0.0, 0.0, 0.0, 0.0};
+
+  double apply(LandCover c, double albedo) const {
+    const auto k = static_cast<std::size_t>(c);
+    return offset[k] + gain[k] * albedo;
+  }
+  void check() const {
+    for (int k = 0; k < kLandCoverCount; ++k)
+      DIACHRON_CHECK(std::isfinite(gain[static_cast<std::size_t>(k)]) && std::isfinite(offset[static_cast<std::size_t>(k)]) &&
+                         std::abs(gain[static_cast<std::size_t>(k)]) <= 10.0,
+                     "LandCoverResponse: gain and offset of class " << k << " must be finite (|gain| <= 10)");
   }
 };
 
@@ -128,16 +159,19 @@ inline int field_generation(std::uint64_t field_seed, std::int64_t i, std::int64
 /// always fall in the same lattice cell and field; one sampler per thread.
 class LandSampler {
  public:
-  LandSampler(const Landscape& land, const TextureOptions& options, int epoch, std::uint64_t seed)
-      : land_(&land), options_(&options), epoch_(epoch), seed_(seed) {}
+  LandSampler(const Landscape& land, const TextureOptions& options, int epoch, std::uint64_t seed,
+              const LandCoverResponse& response = LandCoverResponse{})
+      : land_(&land), options_(&options), response_(&response), epoch_(epoch), seed_(seed) {}
 
   double operator()(const Vec2& xy) {
     const Landscape& land = *land_;
     const TextureOptions& options = *options_;
-    const double s = land.field_size_m;
+    const LandCoverResponse& response = *response_;
+    const int layout = layout_generation(xy);
+    const double s = layout_field_size_;
     const auto ci = static_cast<std::int64_t>(std::floor(xy.x() / s));
     const auto cj = static_cast<std::int64_t>(std::floor(xy.y() / s));
-    if (!has_sites_ || ci != ci_ || cj != cj_) load_sites(ci, cj);
+    if (!has_sites_ || ci != ci_ || cj != cj_ || layout != sites_layout_) load_sites(ci, cj, layout);
     // Jittered-grid Voronoi: the site of lattice cell (i, j) lies in its middle 70 %, so the
     // nearest two sites are among the 3 x 3 neighbouring cells.
     double d1 = 1e300, d2 = 1e300;
@@ -153,15 +187,17 @@ class LandSampler {
     }
     const std::int64_t i1 = ci_ + k1 % 3 - 1, j1 = cj_ + k1 / 3 - 1;
     const std::int64_t i2 = ci_ + k2 % 3 - 1, j2 = cj_ + k2 / 3 - 1;
-    if (!has_look_ || i1 != look_i_ || j1 != look_j_) {
-      look_ = field_look(land.field_seed, i1, j1, field_generation(land.field_seed, i1, j1, epoch_, land.changed_field_fraction));
+    if (!has_look_ || i1 != look_i_ || j1 != look_j_ || layout != look_layout_) {
+      look_ = field_look(layout_seed_, i1, j1, field_generation(layout_seed_, i1, j1, epoch_, land.changed_field_fraction));
       look_i_ = i1;
       look_j_ = j1;
+      look_layout_ = layout;
       has_look_ = true;
     }
     const FieldLook& look = look_;
     const double along = xy.dot(look.direction);
     double albedo = look.albedo;
+    LandCover cover = LandCover::crop;
     switch (look.pattern) {
       case 0:  // plough or crop rows
         albedo += look.contrast * std::sin(2.0 * kPi * along / look.period);
@@ -175,11 +211,16 @@ class LandSampler {
         const double u = along / spacing - std::floor(along / spacing) - 0.5;
         const double v = across / spacing - std::floor(across / spacing) - 0.5;
         const double r = std::sqrt(u * u + v * v) * spacing;
-        if (r < 2.2) albedo = 0.12 + 0.05 * r;
+        cover = LandCover::grass;
+        if (r < 2.2) {
+          albedo = 0.12 + 0.05 * r;
+          cover = LandCover::woody;
+        }
         break;
       }
       default:  // smooth meadow
         albedo += 2.0 * look.contrast * fbm(look.seed, xy.x(), xy.y(), 40.0, 1);
+        cover = LandCover::grass;
         break;
     }
     if (look.pattern != 2 && epoch_ < static_cast<int>(land.season_shift.size()))
@@ -193,8 +234,10 @@ class LandSampler {
       const bool first_low = i1 < i2 || (i1 == i2 && j1 < j2);
       const std::int64_t lo = first_low ? i1 * 1000003 + j1 : i2 * 1000003 + j2;
       const std::int64_t hi = first_low ? i2 * 1000003 + j2 : i1 * 1000003 + j1;
-      if (lattice_uniform(land.field_seed ^ 0x68656467ULL, lo, hi) < options.hedge_fraction)
+      if (lattice_uniform(layout_seed_ ^ 0x68656467ULL, lo, hi) < options.hedge_fraction) {
         albedo = 0.1 + 0.08 * border / options.hedge_width_m;
+        cover = LandCover::woody;
+      }
     }
 
     // A bush per lattice cell at most, kept inside its cell so only that cell needs testing.
@@ -212,33 +255,69 @@ class LandSampler {
           const Vec2 centre((static_cast<double>(bi) + 0.3 + 0.4 * lattice_uniform(bseed ^ 2, bi, bj)) * spacing,
                             (static_cast<double>(bj) + 0.3 + 0.4 * lattice_uniform(bseed ^ 3, bi, bj)) * spacing);
           const double r = (xy - centre).norm();
-          if (r < radius) albedo = 0.08 + 0.1 * r / radius;
+          if (r < radius) {
+            albedo = 0.08 + 0.1 * r / radius;
+            cover = LandCover::woody;
+          }
         }
       }
     }
+    albedo = response.apply(cover, albedo);
     albedo += options.noise_amplitude * fbm(seed_ ^ 0x6e6f6973ULL, xy.x(), xy.y(), options.noise_wavelength_m, 2);
     return albedo;
   }
 
  private:
-  void load_sites(std::int64_t ci, std::int64_t cj) {
-    const double s = land_->field_size_m;
+  /// The number of times the field layout of the region holding `xy` has been redrawn up to this
+  /// epoch; sets layout_seed_ and layout_field_size_ for it. Generation 0 is the original layout.
+  int layout_generation(const Vec2& xy) {
+    const Landscape& land = *land_;
+    if (land.redrawn_layout_fraction <= 0.0 || epoch_ == 0) {
+      layout_seed_ = land.field_seed;
+      layout_field_size_ = land.field_size_m;
+      return 0;
+    }
+    const auto ri = static_cast<std::int64_t>(std::floor(xy.x() / land.layout_region_m));
+    const auto rj = static_cast<std::int64_t>(std::floor(xy.y() / land.layout_region_m));
+    if (!has_region_ || ri != region_i_ || rj != region_j_) {
+      region_generation_ = 0;
+      for (int e = 1; e <= epoch_; ++e)
+        if (lattice_uniform(mix64(land.field_seed ^ (0x6c61796f7574ULL + static_cast<std::uint64_t>(e))), ri, rj) <
+            land.redrawn_layout_fraction)
+          ++region_generation_;
+      region_i_ = ri;
+      region_j_ = rj;
+      has_region_ = true;
+    }
+    const int g = region_generation_;
+    layout_seed_ = g == 0 ? land.field_seed : mix64(land.field_seed + 0x9e3779b97f4a7c15ULL * static_cast<std::uint64_t>(g));
+    layout_field_size_ = land.field_size_m * std::pow(land.consolidation, g);
+    return g;
+  }
+
+  void load_sites(std::int64_t ci, std::int64_t cj, int layout) {
+    const double s = layout_field_size_;
     for (int k = 0; k < 9; ++k) {
       const std::int64_t i = ci + k % 3 - 1, j = cj + k / 3 - 1;
-      sites_[k] = Vec2((static_cast<double>(i) + 0.15 + 0.7 * lattice_uniform(land_->field_seed, i, j)) * s,
-                       (static_cast<double>(j) + 0.15 + 0.7 * lattice_uniform(land_->field_seed ^ 0xabcdefULL, i, j)) * s);
+      sites_[k] = Vec2((static_cast<double>(i) + 0.15 + 0.7 * lattice_uniform(layout_seed_, i, j)) * s,
+                       (static_cast<double>(j) + 0.15 + 0.7 * lattice_uniform(layout_seed_ ^ 0xabcdefULL, i, j)) * s);
     }
     ci_ = ci;
     cj_ = cj;
+    sites_layout_ = layout;
     has_sites_ = true;
   }
 
   const Landscape* land_;
   const TextureOptions* options_;
+  const LandCoverResponse* response_;
   int epoch_;
   std::uint64_t seed_;
-  bool has_sites_ = false, has_look_ = false;
-  std::int64_t ci_ = 0, cj_ = 0, look_i_ = 0, look_j_ = 0;
+  bool has_sites_ = false, has_look_ = false, has_region_ = false;
+  std::int64_t ci_ = 0, cj_ = 0, look_i_ = 0, look_j_ = 0, region_i_ = 0, region_j_ = 0;
+  int sites_layout_ = 0, look_layout_ = 0, region_generation_ = 0;
+  std::uint64_t layout_seed_ = 0;
+  double layout_field_size_ = 1.0;
   Vec2 sites_[9];
   FieldLook look_;
 };
@@ -248,9 +327,12 @@ class LandSampler {
 /// Paints the albedo of `epoch` over `bounds` (world X/Y, metres) on a north-up grid of
 /// `options.texel_m`. Rows are computed in parallel; the result does not depend on the threads.
 /// @param seed seed of the texture noise and bushes (the fields use the landscape's own seed).
+/// @param response how this epoch's film or sensor renders each land-cover class (identity by default).
 inline AlbedoMap render_albedo(const Landscape& land, int epoch, const WorldBounds& bounds,
-                               const TextureOptions& options, std::uint64_t seed) {
+                               const TextureOptions& options, std::uint64_t seed,
+                               const LandCoverResponse& response = LandCoverResponse{}) {
   options.check();
+  response.check();
   DIACHRON_CHECK(bounds.max_x > bounds.min_x && bounds.max_y > bounds.min_y, "render_albedo: empty bounds");
   DIACHRON_CHECK(epoch >= 0 && epoch < land.epoch_count,
                  "render_albedo: epoch " << epoch << " outside the landscape's " << land.epoch_count << " epochs");
@@ -270,16 +352,18 @@ inline AlbedoMap render_albedo(const Landscape& land, int epoch, const WorldBoun
   parallel_for(static_cast<std::size_t>(h), options.threads, [&](std::size_t row) {
     const int y = static_cast<int>(row);
     float* out = map.values.row(y);
-    detail::LandSampler land_albedo(land, options, epoch, seed);
+    detail::LandSampler land_albedo(land, options, epoch, seed, response);
     for (int x = 0; x < w; ++x) {
       const Vec2 xy = map.transform.pixel_to_world(Vec2(x, y));
       double albedo = land_albedo(xy);
       for (const Road& road : land.roads) {
+        if (!road.exists_in(epoch)) continue;
         const double d = road.distance(xy);
         if (d < 0.5 * road.width) {
           // Darker verges make the road edges crisp features; a faint wear pattern along it.
           const double edge = 0.5 * road.width - d;
-          albedo = edge < 0.8 ? 0.35 : options.road_albedo + 0.03 * std::sin(xy.dot(road.direction) * 0.9);
+          albedo = response.apply(LandCover::road,
+                                  edge < 0.8 ? 0.35 : options.road_albedo + 0.03 * std::sin(xy.dot(road.direction) * 0.9));
         }
       }
       out[x] = static_cast<float>(albedo);
@@ -304,7 +388,29 @@ inline AlbedoMap render_albedo(const Landscape& land, int epoch, const WorldBoun
         double albedo = b->roof_albedo;
         if (std::min(du, dv) < 0.7) albedo *= 0.55;
         if (b->ridge_rise > 0.0 && std::abs(l.y()) < 0.4) albedo = std::min(1.0, albedo * 1.25);
-        map.values(x, y) = static_cast<float>(albedo);
+        map.values(x, y) = static_cast<float>(response.apply(LandCover::roof, albedo));
+      }
+  }
+  // Tree crowns: a clumpy texture whose pattern is drawn anew in every epoch (leaves, branches and
+  // gaps of a crown do not keep their place over decades); the crown's relief comes from the shading.
+  for (const Tree& tree : land.trees) {
+    if (!tree.exists_in(epoch)) continue;
+    const double r = tree.crown_radius(epoch);
+    const Vec2 p0 = map.transform.world_to_pixel(tree.centre - Vec2(r, -r));
+    const Vec2 p1 = map.transform.world_to_pixel(tree.centre + Vec2(r, -r));
+    const int x0 = std::max(0, static_cast<int>(std::floor(std::min(p0.x(), p1.x()))));
+    const int x1 = std::min(w - 1, static_cast<int>(std::ceil(std::max(p0.x(), p1.x()))));
+    const int y0 = std::max(0, static_cast<int>(std::floor(std::min(p0.y(), p1.y()))));
+    const int y1 = std::min(h - 1, static_cast<int>(std::ceil(std::max(p0.y(), p1.y()))));
+    const std::uint64_t crown_seed = detail::mix64(tree.seed + static_cast<std::uint64_t>(epoch) * 0x9e3779b97f4a7c15ULL);
+    for (int y = y0; y <= y1; ++y)
+      for (int x = x0; x <= x1; ++x) {
+        const Vec2 xy = map.transform.pixel_to_world(Vec2(x, y));
+        const double d = (xy - tree.centre).norm();
+        if (d >= r) continue;
+        const double clumps = detail::fbm(crown_seed, xy.x(), xy.y(), std::max(0.4 * r, 1.0), 2);
+        const double albedo = tree.albedo * (1.0 + 0.6 * clumps) * (1.0 - 0.25 * d / r);
+        map.values(x, y) = static_cast<float>(response.apply(LandCover::woody, albedo));
       }
   }
   for (float& v : map.values) v = std::clamp(v, 0.0f, 1.0f);
