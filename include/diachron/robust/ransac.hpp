@@ -67,8 +67,10 @@ struct local_optimization_takes_stream<
 /// model of the sample, and the best of them becomes the best model when its score is strictly
 /// higher; then local optimisation runs on it, and the Termination policy decides whether to stop.
 /// Finally the best model is refit on all its inliers (options.final_refit, estimators with
-/// `refine` only; one unweighted least-squares fit), the refit kept when it has at least as many
-/// inliers or a higher score; its final pass gives the report's inliers, mask, score and rms.
+/// `refine` only; one unweighted least-squares fit), the refit kept unless its truncated quadratic
+/// cost sum(min(r^2, t^2)) on all data is higher, whatever the Scoring policy (so InlierCount does
+/// not throw a better fit away for an inlier lost at the threshold); its final pass gives the
+/// report's inliers, mask, score and rms.
 ///
 /// Determinism. Hypotheses are processed in batches (of 1, 2, 4, ... then 64 iterations; a fixed
 /// schedule). Within a batch they are generated and scored independently, on options.threads
@@ -407,8 +409,12 @@ typename Ransac<E, Sa, Sc, T, L>::Report Ransac<E, Sa, Sc, T, L>::run(const Datu
   }
 
   // The final model: one unweighted refit on all inliers of the best model (when the estimator can
-  // refine), kept when its own final pass has at least as many inliers or a higher score. That pass
-  // is also the report's, so the refit costs an inlier pass, one least-squares fit and nothing more.
+  // refine), kept unless its truncated quadratic (MSAC) cost on all data is higher. Not the Scoring
+  // policy's score: under InlierCount a least-squares refit that moves one or two inliers across
+  // the threshold would lose to the raw minimal-sample model, whose error can be 40 times larger
+  // (issue 12); the least-squares fit never raises the truncated cost over the inliers it was fit
+  // on, so a refit is rejected only when it really explains the data worse. Its final pass is also
+  // the report's, so the refit costs an inlier pass, one least-squares fit and nothing more.
   // Room for the inliers up front: growing a vector of half a million indices costs about as much
   // as the pass that fills it.
   const std::size_t expected_inliers = best.num_inliers + best.num_inliers / 16 + kScoreBlock;
@@ -419,7 +425,8 @@ typename Ransac<E, Sa, Sc, T, L>::Report Ransac<E, Sa, Sc, T, L>::run(const Datu
   bool final_pass_done = false;
   if constexpr (estimator_has_refine_v<E>) {
     if (options_.final_refit) {
-      problem.inliers(best_model, inliers, nullptr, report.residual_evaluations);
+      double best_squares = 0.0;
+      problem.inliers(best_model, inliers, nullptr, report.residual_evaluations, &best_squares);
       if (inliers.size() >= kSampleSize) {
         const Subset<Datum> subset(data, inliers.data(), inliers.size());
         const auto refined = estimator_.refine(best_model, subset, nullptr);
@@ -430,7 +437,8 @@ typename Ransac<E, Sa, Sc, T, L>::Report Ransac<E, Sa, Sc, T, L>::run(const Datu
           double refined_score = 0.0, refined_squares = 0.0;
           problem.final_pass(*refined, mask, refined_inliers, refined_score, refined_squares);
           report.residual_evaluations += size;
-          if (refined_inliers.size() >= best.num_inliers || refined_score > best.score) {
+          if (problem.truncated_cost(refined_inliers.size(), refined_squares) <=
+              problem.truncated_cost(inliers.size(), best_squares)) {
             best_model = *refined;
             report.inlier_mask = std::move(mask);
             inliers = std::move(refined_inliers);
