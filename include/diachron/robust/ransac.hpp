@@ -125,7 +125,8 @@ class Ransac {
                 "`bool early_exit` member (see diachron/robust/inlier_count_scoring.hpp)");
   static_assert(is_termination_v<Termination>,
                 "Termination must have `std::size_t required_iterations(const RansacOptions&, "
-                "std::size_t, std::size_t, std::size_t) const` (see "
+                "std::size_t, std::size_t, std::size_t) const` or `std::size_t "
+                "required_iterations(const RansacOptions&, const TerminationState&) const` (see "
                 "diachron/robust/fixed_iterations.hpp)");
   static_assert(is_local_optimization_v<LocalOptimization, Estimator, Scoring>,
                 "LocalOptimization must have `bool optimize(const RansacProblem<E, S>&, Model&, "
@@ -186,12 +187,12 @@ class Ransac {
   void run_iteration(const Problem& problem, const Sampler& sampler, std::size_t iteration,
                      double bound, double sample_bound, const SprtTest* sprt, Slot& slot) const;
 
-  std::size_t needed_iterations(std::size_t best_inliers, std::size_t num_data,
+  std::size_t needed_iterations(const Termination& termination, const TerminationState& state,
                                 double false_rejection = 0.0) const {
-    std::size_t k = termination_.required_iterations(options_, best_inliers, num_data, kSampleSize);
+    std::size_t k = required_iterations(termination, options_, state);
     if (false_rejection > 0.0 && k < options_.max_iterations) {
       const double p = std::pow(
-          static_cast<double>(best_inliers) / static_cast<double>(num_data),
+          static_cast<double>(state.best_inliers) / static_cast<double>(state.num_data),
           static_cast<double>(kSampleSize));
       const double adjusted =
           sprt_adjusted_iterations(static_cast<double>(k), p, false_rejection);
@@ -301,6 +302,11 @@ typename Ransac<E, Sa, Sc, T, L>::Report Ransac<E, Sa, Sc, T, L>::run(const Datu
   const Problem problem(estimator_, scoring_, data, size, options_.threshold, &screening);
   Sa sampler = sampler_;
   sampler.prepare(size, kSampleSize);
+  T termination = termination_;
+  if constexpr (detail::termination_has_prepare<T>::value) termination.prepare(size, kSampleSize);
+  // The best model's inlier indices, kept only for a Termination policy that asks for them.
+  constexpr bool kTrackInliers = detail::termination_needs_best_inliers<T>::value;
+  std::vector<std::size_t> best_inlier_indices;
   const std::size_t threads = resolve_threads(options_.threads);
 
   Model best_model{};
@@ -329,7 +335,21 @@ typename Ransac<E, Sa, Sc, T, L>::Report Ransac<E, Sa, Sc, T, L>::run(const Datu
         static_cast<double>(std::max<std::size_t>(iteration, 1));
     return make_sprt_test(epsilon, delta, options_.sprt_model_cost, models_per_sample);
   };
-  std::size_t needed = needed_iterations(0, size);
+  const auto termination_state = [&](std::size_t done) {
+    TerminationState state;
+    state.iterations = done;
+    state.best_inliers = best.num_inliers;
+    state.num_data = size;
+    state.sample_size = kSampleSize;
+    if constexpr (detail::sampler_has_pool_size<Sa>::value) {
+      state.pool_size = sampler.pool_size(done);
+    } else {
+      state.pool_size = size;
+    }
+    if (kTrackInliers && has_best) state.best_inlier_indices = &best_inlier_indices;
+    return state;
+  };
+  std::size_t needed = needed_iterations(termination, termination_state(0));
   std::size_t batch = 1;
   while (iteration < needed) {
     const std::size_t begin = iteration;
@@ -383,9 +403,12 @@ typename Ransac<E, Sa, Sc, T, L>::Report Ransac<E, Sa, Sc, T, L>::run(const Datu
                                   ? best.score
                                   : problem.sample_score(best_model, report.residual_evaluations);
         }
+        if constexpr (kTrackInliers) {
+          problem.inliers(best_model, best_inlier_indices, nullptr, report.residual_evaluations);
+        }
       }
       iteration = begin + j + 1;
-      needed = needed_iterations(best.num_inliers, size,
+      needed = needed_iterations(termination, termination_state(iteration),
                                  options_.sprt ? current_sprt().false_rejection() : 0.0);
       // The batch ends at a new best: later slots were scored against the old bound (and are
       // dropped, uncounted, when workers computed them), so every iteration is scored against the
