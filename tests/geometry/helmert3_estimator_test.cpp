@@ -196,7 +196,7 @@ TEST_CASE("Helmert3Estimator: refine is weighted least squares", "[geometry]") {
   CHECK_FALSE(estimator.refine(*plain, two, nullptr));
 }
 
-TEST_CASE("Helmert3Estimator: options (symmetric scale, rigid, Check)", "[geometry]") {
+TEST_CASE("Helmert3Estimator: options (symmetric scale, rigid, check())", "[geometry]") {
   diachron::RandomStream random(4);
   const Helmert3 truth = Helmert3::from_axis_angle(0.5, {0.5, 0.5, 0.5}, {1, 2, 3});
   std::vector<PointPair3> forward, backward;
@@ -234,8 +234,10 @@ TEST_CASE("Helmert3Estimator: options (symmetric scale, rigid, Check)", "[geomet
   CHECK(models[0].scale == 1.0);
   CHECK(diachron::rotation_distance(models[0].rotation, euclidean.rotation) < 1e-12);
 
+  CHECK_NOTHROW(Helmert3Estimator::Options{}.check());
   Helmert3Estimator::Options bad;
   bad.collinearity_tolerance = 1.5;
+  CHECK_THROWS_AS(bad.check(), diachron::Error);  // check(), as RansacOptions::check()
   CHECK_THROWS_AS(Helmert3Estimator(bad), diachron::Error);
   bad = {};
   bad.coincidence_tolerance = -1e-3;

@@ -188,7 +188,7 @@ TEST_CASE("Similarity2Estimator: refine is weighted least squares", "[geometry]"
   CHECK_FALSE(estimator.refine(*plain, one, nullptr));
 }
 
-TEST_CASE("Similarity2Estimator: options (symmetric scale, rigid, Check)", "[geometry]") {
+TEST_CASE("Similarity2Estimator: options (symmetric scale, rigid, check())", "[geometry]") {
   diachron::RandomStream random(4);
   const Similarity2 truth{3.0, -0.4, {5, 5}};
   std::vector<PointPair2> forward, backward;
@@ -221,8 +221,10 @@ TEST_CASE("Similarity2Estimator: options (symmetric scale, rigid, Check)", "[geo
   CHECK(angle_difference(models[0].angle, 2.0) < 1e-13);
   CHECK((models[0].translation - euclidean.translation).norm() < 1e-12);
 
+  CHECK_NOTHROW(Similarity2Estimator::Options{}.check());
   Similarity2Estimator::Options bad;
   bad.coincidence_tolerance = -1.0;
+  CHECK_THROWS_AS(bad.check(), diachron::Error);  // check(), as RansacOptions::check()
   CHECK_THROWS_AS(Similarity2Estimator(bad), diachron::Error);
   bad.coincidence_tolerance = std::nan("");
   CHECK_THROWS_AS(Similarity2Estimator(bad), diachron::Error);

@@ -50,5 +50,13 @@ TEST_CASE("Adaptive: clamps to min/max iterations and applies the multiplier", "
   CHECK(Adaptive{2.5}.required_iterations(options, 50, 100, 2) == 43);  // ceil(42.5)
   options.confidence = 1.0;  // "always run max_iterations"
   CHECK(adaptive.required_iterations(options, 100, 100, 2) == 1000);
-  CHECK_THROWS_AS(Adaptive{0.5}.required_iterations(options, 50, 100, 2), diachron::Error);
+}
+
+TEST_CASE("Adaptive: an invalid multiplier throws at construction, not from run()", "[robust]") {
+  CHECK_THROWS_AS(Adaptive{0.5}, diachron::Error);
+  CHECK_THROWS_AS(Adaptive{std::nan("")}, diachron::Error);
+  CHECK_THROWS_AS(Adaptive{std::numeric_limits<double>::infinity()}, diachron::Error);
+  CHECK(Adaptive{}.multiplier() == 1.0);
+  CHECK(Adaptive{1.0}.multiplier() == 1.0);
+  CHECK(Adaptive{3.0}.multiplier() == 3.0);
 }

@@ -36,7 +36,7 @@ struct Helmert3EstimatorOptions {
   double collinearity_tolerance = 1e-6;
 
   /// Throws diachron::Error when a field is out of range.
-  void Check() const {
+  void check() const {
     DIACHRON_CHECK(std::isfinite(coincidence_tolerance) && coincidence_tolerance >= 0.0 &&
                        coincidence_tolerance < 1.0,
                    "coincidence_tolerance " << coincidence_tolerance << " must be in [0, 1)");
@@ -68,8 +68,8 @@ class Helmert3Estimator {
   using Models = StaticVector<Model, kMaxModels>;
 
   Helmert3Estimator() = default;
-  /// Precondition: `options.Check()` passes (throws diachron::Error otherwise).
-  explicit Helmert3Estimator(const Options& options) : options_(options) { options_.Check(); }
+  /// Precondition: `options.check()` passes (throws diachron::Error otherwise).
+  explicit Helmert3Estimator(const Options& options) : options_(options) { options_.check(); }
 
   const Options& options() const { return options_; }
 

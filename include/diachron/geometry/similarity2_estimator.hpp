@@ -32,7 +32,7 @@ struct Similarity2EstimatorOptions {
   double coincidence_tolerance = 1e-10;
 
   /// Throws diachron::Error when a field is out of range.
-  void Check() const {
+  void check() const {
     DIACHRON_CHECK(std::isfinite(coincidence_tolerance) && coincidence_tolerance >= 0.0 &&
                        coincidence_tolerance < 1.0,
                    "coincidence_tolerance " << coincidence_tolerance << " must be in [0, 1)");
@@ -59,8 +59,8 @@ class Similarity2Estimator {
   using Models = StaticVector<Model, kMaxModels>;
 
   Similarity2Estimator() = default;
-  /// Precondition: `options.Check()` passes (throws diachron::Error otherwise).
-  explicit Similarity2Estimator(const Options& options) : options_(options) { options_.Check(); }
+  /// Precondition: `options.check()` passes (throws diachron::Error otherwise).
+  explicit Similarity2Estimator(const Options& options) : options_(options) { options_.check(); }
 
   const Options& options() const { return options_; }
 

@@ -44,23 +44,35 @@ inline double adaptive_iterations(std::size_t num_inliers, std::size_t num_data,
 
 /// Stops after multiplier x adaptive_iterations(best inliers, N, m, options.confidence), clamped to
 /// [options.min_iterations, options.max_iterations]. confidence = 1 runs max_iterations always.
-struct Adaptive {
-  /// Factor on the iteration count of the stopping rule, >= 1 (COLMAP and PoseLib use 3). The rule
-  /// assumes that any all-inlier sample yields the best model; noise makes that optimistic, and
-  /// the multiplier buys margin. Default 1: local optimisation already recovers the consensus from
-  /// a near-all-inlier sample.
-  double multiplier = 1.0;
+class Adaptive {
+ public:
+  /// Multiplier 1.
+  Adaptive() = default;
+
+  /// @param multiplier factor on the iteration count of the stopping rule, finite and >= 1
+  ///        (COLMAP and PoseLib use 3). Throws diachron::Error otherwise, here rather than from
+  ///        Ransac::run, so that a bad value is caught where it is written.
+  explicit Adaptive(double multiplier) : multiplier_(multiplier) {
+    DIACHRON_CHECK(std::isfinite(multiplier) && multiplier >= 1.0,
+                   "Adaptive multiplier must be finite and >= 1, got " << multiplier);
+  }
+
+  /// The rule assumes that any all-inlier sample yields the best model; noise makes that
+  /// optimistic, and the multiplier buys margin. Default 1: local optimisation already recovers the
+  /// consensus from a near-all-inlier sample.
+  double multiplier() const { return multiplier_; }
 
   std::size_t required_iterations(const RansacOptions& options, std::size_t best_inliers,
                                   std::size_t num_data, std::size_t sample_size) const {
-    DIACHRON_CHECK(std::isfinite(multiplier) && multiplier >= 1.0,
-                   "Adaptive::multiplier must be finite and >= 1, got " << multiplier);
     const double k = std::ceil(
-        multiplier * adaptive_iterations(best_inliers, num_data, sample_size, options.confidence));
+        multiplier_ * adaptive_iterations(best_inliers, num_data, sample_size, options.confidence));
     const double cap = static_cast<double>(options.max_iterations);
     const std::size_t needed = k >= cap ? options.max_iterations : static_cast<std::size_t>(k);
     return needed < options.min_iterations ? options.min_iterations : needed;
   }
+
+ private:
+  double multiplier_ = 1.0;
 };
 
 static_assert(is_termination_v<Adaptive>, "Adaptive must model the Termination concept");

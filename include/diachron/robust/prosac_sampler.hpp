@@ -25,8 +25,9 @@ namespace diachron {
 /// the n-th datum plus sample_size - 1 distinct data from the n - 1 before it. Once t exceeds
 /// T'_N the draw is uniform over all data. Because nothing depends on earlier draws, the sampler is
 /// deterministic from (seed, iteration) and safe for parallel batches, unlike PROSAC's original
-/// sequential formulation. The paper's early-termination tests on the pool size (non-randomness,
-/// maximality) are left to the Termination policy and not used here.
+/// sequential formulation. The paper's stopping rule (non-randomness, maximality) is a Termination
+/// policy, ProsacTermination (robust/prosac_termination.hpp); pool_size() tells Termination
+/// policies the pool of each iteration.
 ///
 /// Memory: prepare() builds a table of N - sample_size + 1 integers.
 class ProsacSampler {

@@ -67,8 +67,10 @@ struct local_optimization_takes_stream<
 /// model of the sample, and the best of them becomes the best model when its score is strictly
 /// higher; then local optimisation runs on it, and the Termination policy decides whether to stop.
 /// Finally the best model is refit on all its inliers (options.final_refit, estimators with
-/// `refine` only; one unweighted least-squares fit), the refit kept when it has at least as many
-/// inliers or a higher score; its final pass gives the report's inliers, mask, score and rms.
+/// `refine` only; one unweighted least-squares fit), the refit kept unless its truncated quadratic
+/// cost sum(min(r^2, t^2)) on all data is higher, whatever the Scoring policy (so InlierCount does
+/// not throw a better fit away for an inlier lost at the threshold); its final pass gives the
+/// report's inliers, mask, score and rms.
 ///
 /// Determinism. Hypotheses are processed in batches (of 1, 2, 4, ... then 64 iterations; a fixed
 /// schedule). Within a batch they are generated and scored independently, on options.threads
@@ -123,7 +125,8 @@ class Ransac {
                 "`bool early_exit` member (see diachron/robust/inlier_count_scoring.hpp)");
   static_assert(is_termination_v<Termination>,
                 "Termination must have `std::size_t required_iterations(const RansacOptions&, "
-                "std::size_t, std::size_t, std::size_t) const` (see "
+                "std::size_t, std::size_t, std::size_t) const` or `std::size_t "
+                "required_iterations(const RansacOptions&, const TerminationState&) const` (see "
                 "diachron/robust/fixed_iterations.hpp)");
   static_assert(is_local_optimization_v<LocalOptimization, Estimator, Scoring>,
                 "LocalOptimization must have `bool optimize(const RansacProblem<E, S>&, Model&, "
@@ -184,12 +187,12 @@ class Ransac {
   void run_iteration(const Problem& problem, const Sampler& sampler, std::size_t iteration,
                      double bound, double sample_bound, const SprtTest* sprt, Slot& slot) const;
 
-  std::size_t needed_iterations(std::size_t best_inliers, std::size_t num_data,
+  std::size_t needed_iterations(const Termination& termination, const TerminationState& state,
                                 double false_rejection = 0.0) const {
-    std::size_t k = termination_.required_iterations(options_, best_inliers, num_data, kSampleSize);
+    std::size_t k = required_iterations(termination, options_, state);
     if (false_rejection > 0.0 && k < options_.max_iterations) {
       const double p = std::pow(
-          static_cast<double>(best_inliers) / static_cast<double>(num_data),
+          static_cast<double>(state.best_inliers) / static_cast<double>(state.num_data),
           static_cast<double>(kSampleSize));
       const double adjusted =
           sprt_adjusted_iterations(static_cast<double>(k), p, false_rejection);
@@ -299,6 +302,11 @@ typename Ransac<E, Sa, Sc, T, L>::Report Ransac<E, Sa, Sc, T, L>::run(const Datu
   const Problem problem(estimator_, scoring_, data, size, options_.threshold, &screening);
   Sa sampler = sampler_;
   sampler.prepare(size, kSampleSize);
+  T termination = termination_;
+  if constexpr (detail::termination_has_prepare<T>::value) termination.prepare(size, kSampleSize);
+  // The best model's inlier indices, kept only for a Termination policy that asks for them.
+  constexpr bool kTrackInliers = detail::termination_needs_best_inliers<T>::value;
+  std::vector<std::size_t> best_inlier_indices;
   const std::size_t threads = resolve_threads(options_.threads);
 
   Model best_model{};
@@ -327,7 +335,21 @@ typename Ransac<E, Sa, Sc, T, L>::Report Ransac<E, Sa, Sc, T, L>::run(const Datu
         static_cast<double>(std::max<std::size_t>(iteration, 1));
     return make_sprt_test(epsilon, delta, options_.sprt_model_cost, models_per_sample);
   };
-  std::size_t needed = needed_iterations(0, size);
+  const auto termination_state = [&](std::size_t done) {
+    TerminationState state;
+    state.iterations = done;
+    state.best_inliers = best.num_inliers;
+    state.num_data = size;
+    state.sample_size = kSampleSize;
+    if constexpr (detail::sampler_has_pool_size<Sa>::value) {
+      state.pool_size = sampler.pool_size(done);
+    } else {
+      state.pool_size = size;
+    }
+    if (kTrackInliers && has_best) state.best_inlier_indices = &best_inlier_indices;
+    return state;
+  };
+  std::size_t needed = needed_iterations(termination, termination_state(0));
   std::size_t batch = 1;
   while (iteration < needed) {
     const std::size_t begin = iteration;
@@ -381,9 +403,12 @@ typename Ransac<E, Sa, Sc, T, L>::Report Ransac<E, Sa, Sc, T, L>::run(const Datu
                                   ? best.score
                                   : problem.sample_score(best_model, report.residual_evaluations);
         }
+        if constexpr (kTrackInliers) {
+          problem.inliers(best_model, best_inlier_indices, nullptr, report.residual_evaluations);
+        }
       }
       iteration = begin + j + 1;
-      needed = needed_iterations(best.num_inliers, size,
+      needed = needed_iterations(termination, termination_state(iteration),
                                  options_.sprt ? current_sprt().false_rejection() : 0.0);
       // The batch ends at a new best: later slots were scored against the old bound (and are
       // dropped, uncounted, when workers computed them), so every iteration is scored against the
@@ -407,8 +432,12 @@ typename Ransac<E, Sa, Sc, T, L>::Report Ransac<E, Sa, Sc, T, L>::run(const Datu
   }
 
   // The final model: one unweighted refit on all inliers of the best model (when the estimator can
-  // refine), kept when its own final pass has at least as many inliers or a higher score. That pass
-  // is also the report's, so the refit costs an inlier pass, one least-squares fit and nothing more.
+  // refine), kept unless its truncated quadratic (MSAC) cost on all data is higher. Not the Scoring
+  // policy's score: under InlierCount a least-squares refit that moves one or two inliers across
+  // the threshold would lose to the raw minimal-sample model, whose error can be 40 times larger
+  // (issue 12); the least-squares fit never raises the truncated cost over the inliers it was fit
+  // on, so a refit is rejected only when it really explains the data worse. Its final pass is also
+  // the report's, so the refit costs an inlier pass, one least-squares fit and nothing more.
   // Room for the inliers up front: growing a vector of half a million indices costs about as much
   // as the pass that fills it.
   const std::size_t expected_inliers = best.num_inliers + best.num_inliers / 16 + kScoreBlock;
@@ -419,7 +448,8 @@ typename Ransac<E, Sa, Sc, T, L>::Report Ransac<E, Sa, Sc, T, L>::run(const Datu
   bool final_pass_done = false;
   if constexpr (estimator_has_refine_v<E>) {
     if (options_.final_refit) {
-      problem.inliers(best_model, inliers, nullptr, report.residual_evaluations);
+      double best_squares = 0.0;
+      problem.inliers(best_model, inliers, nullptr, report.residual_evaluations, &best_squares);
       if (inliers.size() >= kSampleSize) {
         const Subset<Datum> subset(data, inliers.data(), inliers.size());
         const auto refined = estimator_.refine(best_model, subset, nullptr);
@@ -430,7 +460,8 @@ typename Ransac<E, Sa, Sc, T, L>::Report Ransac<E, Sa, Sc, T, L>::run(const Datu
           double refined_score = 0.0, refined_squares = 0.0;
           problem.final_pass(*refined, mask, refined_inliers, refined_score, refined_squares);
           report.residual_evaluations += size;
-          if (refined_inliers.size() >= best.num_inliers || refined_score > best.score) {
+          if (problem.truncated_cost(refined_inliers.size(), refined_squares) <=
+              problem.truncated_cost(inliers.size(), best_squares)) {
             best_model = *refined;
             report.inlier_mask = std::move(mask);
             inliers = std::move(refined_inliers);

@@ -55,8 +55,10 @@ struct RansacOptions {
   std::size_t max_sample_attempts = 100;
 
   /// After the main loop, refit the best model on all its inliers with Estimator::refine (when the
-  /// estimator has one, one unweighted fit) and keep the refit when it has at least as many inliers
-  /// or a higher score.
+  /// estimator has one, one unweighted fit) and keep the refit unless its truncated quadratic cost
+  /// sum(min(r^2, threshold^2)) over all data is higher than the unrefined model's, whatever the
+  /// Scoring policy: an inlier count would reject a better fit that loses an inlier or two at the
+  /// threshold. The report's score is the kept model's (it may then be below the loop's best).
   bool final_refit = true;
 
   /// Risk, in [0, 1), of the bail-out test (Capel 2005; robust/bail_out.hpp): before its full pass,

@@ -219,11 +219,13 @@ class RansacProblem {
   }
 
   /// Indices of the inliers of `model` (increasing) into `indices`, and, when `residuals` is not
-  /// null, their residuals in the same order. Reuses the vectors' storage.
+  /// null, their residuals in the same order; when `sum_squares` is not null, the sum of the
+  /// inliers' squared residuals (summed as final_pass sums it). Reuses the vectors' storage.
   void inliers(const Model& model, std::vector<std::size_t>& indices, std::vector<double>* residuals,
-               std::size_t& residual_evaluations) const {
+               std::size_t& residual_evaluations, double* sum_squares = nullptr) const {
     indices.clear();
     if (residuals) residuals->clear();
+    double squares = 0.0;
     std::size_t found[kScoreBlock];
     in_blocks(make_residual_function(estimator_, model),
               [&](std::size_t begin, std::size_t n, const double* values) {
@@ -234,9 +236,20 @@ class RansacProblem {
                     residuals->push_back(std::sqrt(squared(values[found[j] - begin])));
                   }
                 }
+                if (sum_squares) {
+                  for (std::size_t j = 0; j < count; ++j) squares += squared(values[found[j] - begin]);
+                }
                 return true;
               });
+    if (sum_squares) *sum_squares = squares;
     residual_evaluations += size_;
+  }
+
+  /// MSAC's truncated quadratic cost of a model with `num_inliers` inliers whose squared residuals
+  /// sum to `sum_squares`: sum over all data of min(r^2, t^2), in squared data units. Lower is
+  /// better, whatever the Scoring policy.
+  double truncated_cost(std::size_t num_inliers, double sum_squares) const {
+    return sum_squares + static_cast<double>(size_ - num_inliers) * squared_threshold_;
   }
 
   /// The final pass of a run: inlier mask (0/1 per datum), inlier indices (increasing), the score

@@ -15,6 +15,11 @@
 ///   // (iteration, the values drawn from rng), never on earlier calls, because workers call it
 ///   // concurrently and in any order: hence const.
 ///   void draw(std::size_t iteration, RandomStream& rng, std::size_t* indices) const;
+///
+///   // OPTIONAL. Number of data (the first ones) that hypothesis number `iteration` is drawn from,
+///   // for Termination policies that read TerminationState::pool_size. Without it the pool is
+///   // all data.
+///   std::size_t pool_size(std::size_t iteration) const;
 /// };
 /// @endcode
 /// Models: UniformSampler (this header), ProsacSampler (robust/prosac_sampler.hpp).
@@ -50,6 +55,13 @@ inline void draw_distinct(RandomStream& rng, std::size_t offset, std::size_t ran
     out[filled++] = taken ? offset + j : t;
   }
 }
+
+template <class S, class = void>
+struct sampler_has_pool_size : std::false_type {};
+template <class S>
+struct sampler_has_pool_size<S, std::enable_if_t<std::is_convertible_v<
+                                    decltype(std::declval<const S&>().pool_size(std::size_t{})),
+                                    std::size_t>>> : std::true_type {};
 
 }  // namespace detail
 
