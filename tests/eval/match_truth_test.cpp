@@ -51,13 +51,16 @@ std::optional<Vec3> exact_ground(const Scene& s, ImageRef r, const Vec2& pixel) 
 }
 
 // Lowest height of the segment from the camera of image b to `point` above epoch b's true surface,
-// sampled every 5 cm, leaving out the last `skip_m` metres before the point.
+// sampled every 5 cm where the segment is below the surface's highest point, leaving out the last
+// `skip_m` metres before the point.
 double clearance(const Scene& s, ImageRef b, const Vec3& point, double skip_m) {
   const SyntheticEpoch& e = s.epochs[static_cast<std::size_t>(b.epoch)];
   const Vec3 c = e.images[static_cast<std::size_t>(b.image)].pose_world.centre();
   const double length = (point - c).norm();
+  const double top = e.true_surface.statistics().max + 1.0;
+  const double start = c.z() > top ? length * (c.z() - top) / (c.z() - point.z()) : 0.0;
   double lowest = std::numeric_limits<double>::infinity();
-  for (double d = 0.0; d < length - skip_m; d += 0.05) {
+  for (double d = start; d < length - skip_m; d += 0.05) {
     const Vec3 p = c + (point - c) * (d / length);
     const double z = e.true_surface.height_at(p.head<2>());
     if (!std::isnan(z)) lowest = std::min(lowest, p.z() - z);

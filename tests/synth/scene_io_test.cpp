@@ -78,22 +78,26 @@ std::string read_text(const std::string& path) {
   return buffer.str();
 }
 
-Scene small_scene() {
-  SceneOptions o;
-  o.seed = 21;
-  for (EpochOptions& e : o.epochs) {
-    e.rows = 1;
-    e.columns = 2;
-    e.tie_points = 80;
-  }
-  o.check_points = 20;
-  return generate_scene(o);
+// Generated once for all test cases (the sanitizer build runs them too).
+const Scene& small_scene() {
+  static const Scene scene = [] {
+    SceneOptions o;
+    o.seed = 21;
+    for (EpochOptions& e : o.epochs) {
+      e.rows = 1;
+      e.columns = 2;
+      e.tie_points = 80;
+    }
+    o.check_points = 20;
+    return generate_scene(o);
+  }();
+  return scene;
 }
 
 }  // namespace
 
 TEST_CASE("write_scene then read_scene gives the same scene", "[synth][io]") {
-  const Scene scene = small_scene();
+  const Scene& scene = small_scene();
   const std::string dir = temp_folder("roundtrip");
   write_scene(scene, dir);
   const Scene back = read_scene(dir);
@@ -151,7 +155,7 @@ TEST_CASE("write_scene then read_scene gives the same scene", "[synth][io]") {
 }
 
 TEST_CASE("write_scene: each epoch folder holds what its SfM delivers, the truth is apart", "[synth][io]") {
-  const Scene scene = small_scene();
+  const Scene& scene = small_scene();
   const std::string dir = temp_folder("layout");
   write_scene(scene, dir);
   CHECK(folder_entries(dir) == std::vector<std::string>{"e1", "e2", "truth"});
@@ -212,7 +216,7 @@ TEST_CASE("write_scene: each epoch folder holds what its SfM delivers, the truth
 TEST_CASE("read_scene names the file and line it cannot read", "[synth][io]") {
   CHECK_THROWS_WITH(read_scene(temp_folder("missing")), Catch::Contains("truth/scene.txt"));
 
-  const Scene scene = small_scene();
+  const Scene& scene = small_scene();
   const std::string dir = temp_folder("broken");
   write_scene(scene, dir);
   const std::string truth = dir + "/truth/scene.txt";
