@@ -20,6 +20,7 @@
 #include <diachron/geometry/rotation.hpp>
 #include <diachron/io/colmap_text.hpp>
 
+#include "support/colmap_binary.hpp"
 #include "support/colmap_projection.hpp"
 
 using namespace diachron;
@@ -145,18 +146,6 @@ void raw_pose(const std::string& images_txt, std::uint32_t image_id, Eigen::Vect
     std::getline(in, line);  // its POINTS2D
   }
   FAIL("image " << image_id << " not in " << images_txt);
-}
-
-std::optional<std::string> colmap_binary() {
-  if (const char* env = std::getenv("DIACHRON_COLMAP")) return std::string(env);
-  const char* path = std::getenv("PATH");
-  std::istringstream dirs(path ? path : "/usr/bin");
-  std::string dir;
-  while (std::getline(dirs, dir, ':')) {
-    const std::string candidate = dir + "/colmap";
-    if (::access(candidate.c_str(), X_OK) == 0) return candidate;
-  }
-  return std::nullopt;
 }
 
 }  // namespace
@@ -347,7 +336,7 @@ TEST_CASE("colmap_text: inconsistent models and unsupported cameras are refused"
 }
 
 TEST_CASE("colmap_text: COLMAP 3.8 reads our model, converts it to binary and back unchanged", "[io][colmap]") {
-  const std::optional<std::string> colmap = colmap_binary();
+  const std::optional<std::string> colmap = test::colmap_binary();
   if (!colmap) {
     WARN("skipped: the colmap binary is not installed (scripts/install_deps.sh installs it; DIACHRON_COLMAP names it)");
     return;

@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -20,6 +21,7 @@
 #ifdef DIACHRON_HAVE_GDAL
 #include <diachron/synth/scene_io.hpp>
 
+#include "support/colmap_binary.hpp"
 #include "support/colmap_projection.hpp"
 #include "support/rasters.hpp"
 #endif
@@ -210,6 +212,30 @@ TEST_CASE("write_scene: each epoch folder holds what its SfM delivers, the truth
     std::size_t observations = 0;
     for (const TiePoint& tie : epoch.tie_points) observations += tie.observations.size();
     CHECK(static_cast<std::size_t>(compared) == observations);
+  }
+}
+
+TEST_CASE("write_scene: COLMAP 3.8 opens each epoch folder as a model", "[synth][io]") {
+  const std::optional<std::string> colmap = test::colmap_binary();
+  if (!colmap) {
+    WARN("skipped: the colmap binary is not installed (scripts/install_deps.sh --peers installs it)");
+    return;
+  }
+  const Scene& scene = small_scene();
+  const std::string dir = temp_folder("colmap");
+  write_scene(scene, dir);
+  for (const SyntheticEpoch& epoch : scene.epochs) {
+    const std::string log = dir + "/" + epoch.name + "_analyzer.log";
+    const std::string command = "'" + *colmap + "' model_analyzer --path '" + dir + "/" + epoch.name + "' > '" + log + "' 2>&1";
+    REQUIRE(std::system(command.c_str()) == 0);
+    const std::string report = read_text(log);
+    INFO(report);
+    std::size_t observations = 0;
+    for (const TiePoint& tie : epoch.tie_points) observations += tie.observations.size();
+    CHECK_THAT(report, Catch::Contains("Cameras: 1"));
+    CHECK_THAT(report, Catch::Contains("Registered images: " + std::to_string(epoch.images.size())));
+    CHECK_THAT(report, Catch::Contains("Points: " + std::to_string(epoch.tie_points.size())));
+    CHECK_THAT(report, Catch::Contains("Observations: " + std::to_string(observations)));
   }
 }
 
