@@ -184,7 +184,9 @@ struct AccuracyCurve {
   }
 };
 
-/// The accuracy curve of `truths` for t = 0..max_px px. Precondition: max_px >= 0.
+/// The accuracy curve of `truths` for t = 0..max_px px. A truth counts as scored when its status is
+/// scored and its error finite (results of transfer(), which have no error, count as unscored).
+/// Precondition: max_px in [0, 1e6], else throws diachron::Error.
 inline AccuracyCurve accuracy_curve(const std::vector<MatchTruth>& truths, int max_px = 10) {
   DIACHRON_CHECK(max_px >= 0 && max_px <= 1000000, "accuracy_curve: max_px must be in [0, 1e6], got " << max_px);
   AccuracyCurve curve;
