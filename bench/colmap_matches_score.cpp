@@ -7,8 +7,9 @@
 // db_matches.txt (pair_id rows cols hex), db_two_view_geometries.txt (pair_id rows cols config hex),
 // and sparse_txt/<model>/ (COLMAP text models). Image names are <epoch>/<image>.png.
 // Prints which images each model registered, then per pair kind (inter-/intra-epoch; raw matches and
-// verified two-view geometries) the pairs, the matches, how many could be scored and the share of
-// the scored within 1/3/6/10 px; the same as JSON.
+// verified two-view geometries) the pairs, the matches, how many could be scored, how many of the
+// scored are within 1/3/6/10 px, and the unscored by reason (for off_image: how many are more than
+// 10 px from their true position, which lies outside the image: wrong matches); the same as JSON.
 
 #include <algorithm>
 #include <cmath>
@@ -60,6 +61,8 @@ std::ifstream open(const std::string& path) {
 
 struct Tally {
   std::size_t pairs = 0, matches = 0;
+  // off_image matches whose true position (outside image b) is more than 10 px from pixel_b: wrong.
+  std::size_t off_image_wrong = 0;
   std::map<MatchTruthStatus, std::size_t> by_status;
   std::vector<MatchTruth> truths;
 };
@@ -153,6 +156,9 @@ int main(int argc, char** argv) {
         for (std::size_t r = 0; r < rows; ++r) {
           const MatchTruth truth = scorer.score(a, b, ka.at(m[2 * r]), kb.at(m[2 * r + 1]));
           ++t.matches;
+          if (truth.status == MatchTruthStatus::off_image &&
+              !((truth.true_pixel - kb.at(m[2 * r + 1])).norm() <= 10.0))
+            ++t.off_image_wrong;
           ++t.by_status[truth.status];
           t.truths.push_back(truth);
         }
@@ -214,6 +220,10 @@ int main(int argc, char** argv) {
         std::printf(" %s %zu", status_name(status), n);
         json << (first ? "" : ", ") << "\"" << status_name(status) << "\": " << n;
         first = false;
+        if (status == MatchTruthStatus::off_image) {
+          std::printf(" (%zu > 10 px off)", tally->off_image_wrong);
+          json << ", \"off_image_more_than_10px\": " << tally->off_image_wrong;
+        }
       }
       json << "}}";
       std::printf("\n");

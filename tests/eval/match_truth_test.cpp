@@ -175,6 +175,8 @@ TEST_CASE("MatchTruthScorer: a ground point outside image b is off_image, a ray 
       const MatchTruth t = scorer.transfer(a, b, Vec2(x, y));
       if (!px || !frame_b.in_image(*px)) {
         CHECK(t.status == MatchTruthStatus::off_image);
+        // Where it would be, outside the image, so that benches can say how far such a match is off.
+        if (px) CHECK((t.true_pixel - *px).norm() < 1e-6);
         ++outside;
       } else {
         CHECK(t.status != MatchTruthStatus::off_image);

@@ -48,7 +48,9 @@ enum class MatchTruthStatus {
 struct MatchTruth {
   /// Default: not scored.
   MatchTruthStatus status = MatchTruthStatus::no_surface;
-  /// True position of pixel_a's ground point in image b, px (valid when scored).
+  /// True position of pixel_a's ground point in image b, px: valid when scored; also set when
+  /// off_image and the point is in front of camera b (it then lies outside the image), so that a
+  /// bench can tell how far such a match is off; NaN otherwise.
   Eigen::Vector2d true_pixel = Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
   /// |pixel_b - true_pixel|, px (valid when scored by score(); NaN from transfer()).
   double error_px = std::numeric_limits<double>::quiet_NaN();
@@ -125,6 +127,7 @@ class MatchTruthScorer {
     const std::optional<Vec2> projected = frame_b.project(*ground);
     if (!projected || !frame_b.in_image(*projected)) {
       out.status = MatchTruthStatus::off_image;
+      if (projected) out.true_pixel = *projected;
       return out;
     }
     // The change test compares the surfaces, not the point with surface b, so that it does not
