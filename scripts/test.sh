@@ -3,7 +3,7 @@
 # consumer test) and an ASan + UBSan build. Usage: scripts/test.sh [--no-sanitize]
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
-"$root/scripts/install_deps.sh"
+"$root/scripts/install_deps.sh" --peers
 jobs=$(nproc)
 sanitize=1
 [ "${1:-}" = "--no-sanitize" ] && sanitize=0

@@ -62,6 +62,7 @@
 #include <diachron/matching/point_match.hpp>
 #include <diachron/matching/rotation_hypotheses.hpp>
 #include <diachron/eval/coregistration_case.hpp>
+#include <diachron/eval/match_truth.hpp>
 #include <diachron/synth/epoch.hpp>
 #include <diachron/synth/noise.hpp>
 #include <diachron/synth/render.hpp>

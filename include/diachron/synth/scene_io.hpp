@@ -1,18 +1,21 @@
 #pragma once
 /// @file
-/// Writes a synthetic scene to a plain folder and reads it back: 8-bit PNG images, GeoTIFF DSMs
-/// (the SfM DSM of each epoch in its own frame, the true surface and the albedo in the world
-/// frame), and one text file with cameras, poses, Helmerts, tie points and check points.
-/// Needs GDAL (diachron::io); the generator itself does not.
+/// Writes a synthetic scene to a folder laid out as an SfM delivers each epoch, with the truth
+/// apart, and reads it back. Needs GDAL (diachron::io); the generator itself does not.
 ///
-/// Folder layout (docs/synthetic-scenes.md describes the text format line by line):
+/// Folder layout (docs/synthetic-scenes.md describes every file):
 /// @code
-/// OUT/scene.txt                       truth: cameras, poses, Helmerts, tie and check points
-/// OUT/images/<image name>.png         8-bit grey images
-/// OUT/<epoch>_dsm.tif                 the epoch's DSM as its SfM delivers it (epoch frame)
-/// OUT/<epoch>_true_surface.tif        the epoch's true surface (world frame)
-/// OUT/<epoch>_albedo.tif              the epoch's ground albedo (world frame, 0..1)
+/// OUT/<epoch>/images/<image name>.png     8-bit grey images
+/// OUT/<epoch>/cameras.txt                 COLMAP text model of the epoch as its SfM estimated it:
+/// OUT/<epoch>/images.txt                    estimated camera and poses, epoch frame, COLMAP
+/// OUT/<epoch>/points3D.txt                  conventions; the intra-epoch tie points as tracks
+/// OUT/<epoch>/dsm.tif                     the epoch's DSM as its SfM delivers it (epoch frame)
+/// OUT/truth/scene.txt                     truth: frames, true cameras and poses, tie points in the
+///                                           world, check points
+/// OUT/truth/<epoch>_true_surface.tif      the epoch's true surface (world frame)
+/// OUT/truth/<epoch>_albedo.tif            the epoch's ground albedo (world frame, 0..1)
 /// @endcode
+/// Nothing an SfM of the epoch would not know is in OUT/<epoch>/; OUT/truth/ is for scoring.
 
 #include <cerrno>
 #include <cmath>
@@ -21,6 +24,9 @@
 #include <fstream>
 #include <iomanip>
 #include <limits>
+#include <locale>
+#include <map>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -36,14 +42,18 @@
 #include <diachron/core/error.hpp>
 #include <diachron/core/raster.hpp>
 #include <diachron/geometry/helmert3.hpp>
+#include <diachron/io/colmap_text.hpp>
 #include <diachron/io/geotiff.hpp>
 #include <diachron/synth/scene.hpp>
 #include <diachron/terrain/dsm.hpp>
 
 namespace diachron {
 
-/// Version written on the first line of scene.txt.
-inline constexpr int kSceneFileVersion = 1;
+/// Version written on the first line of truth/scene.txt (1 was the single-folder layout).
+inline constexpr int kSceneFileVersion = 2;
+
+/// Name of the truth folder inside a scene folder (so no epoch may have this name).
+inline constexpr const char* kSceneTruthFolder = "truth";
 
 namespace detail {
 
@@ -182,18 +192,82 @@ inline Dsm albedo_as_dsm(const AlbedoMap& albedo) { return Dsm(albedo.values, al
 
 }  // namespace detail
 
-/// Writes `scene` into the folder `directory` (created if needed; files in it are overwritten).
-/// The landscape description (roads, buildings) is not written: its effect is in the true
-/// surfaces and albedo rasters. Throws diachron::Error naming the file that cannot be written.
+
+namespace detail {
+
+// The epoch as its SfM would deliver it: estimated camera (id 1) and poses (ids 1..N in image
+// order) in the epoch frame, the tie points as 3D points (ids 1..T) at their epoch-frame position,
+// observed by their (noisy) pixels; each point's error is its mean reprojection error with the
+// estimated orientation and its colour the grey value at its first observation.
+inline ColmapModel colmap_model_of_epoch(const SyntheticEpoch& epoch) {
+  ColmapModel model;
+  const ConversionResult<ColmapCamera> camera = colmap_camera_from_camera(epoch.estimated_camera, 1);
+  model.cameras.emplace(1u, camera.model);
+  for (std::size_t i = 0; i < epoch.images.size(); ++i) {
+    ColmapImage image;
+    image.id = static_cast<std::uint32_t>(i + 1);
+    image.name = epoch.images[i].name + ".png";
+    image.camera_id = 1;
+    image.pose = epoch.images[i].estimated_pose;
+    model.images.emplace(image.id, std::move(image));
+  }
+  for (std::size_t k = 0; k < epoch.tie_points.size(); ++k) {
+    const TiePoint& tie = epoch.tie_points[k];
+    ColmapPoint3D point;
+    point.id = k + 1;
+    point.xyz = tie.epoch;
+    double error_sum = 0.0;
+    int error_count = 0;
+    for (const ImageObservation& ob : tie.observations) {
+      DIACHRON_CHECK(ob.image >= 0 && static_cast<std::size_t>(ob.image) < epoch.images.size(),
+                     "write_scene: a tie point of epoch " << epoch.name << " observes image " << ob.image);
+      ColmapImage& image = model.images.at(static_cast<std::uint32_t>(ob.image + 1));
+      point.track.push_back({image.id, static_cast<std::uint32_t>(image.points2d.size())});
+      image.points2d.push_back({colmap_pixel_from_diachron(ob.pixel), static_cast<std::int64_t>(point.id)});
+      if (const std::optional<Vec2> px = epoch.estimated_frame(static_cast<std::size_t>(ob.image)).project(tie.epoch)) {
+        error_sum += (*px - ob.pixel).norm();
+        ++error_count;
+      }
+    }
+    point.error = error_count > 0 ? error_sum / error_count : -1.0;
+    if (!tie.observations.empty()) {
+      const ImageObservation& first = tie.observations.front();
+      const Raster<std::uint8_t>& pixels = epoch.images[static_cast<std::size_t>(first.image)].pixels;
+      const int x = static_cast<int>(std::lround(first.pixel.x())), y = static_cast<int>(std::lround(first.pixel.y()));
+      if (pixels.contains(x, y)) point.rgb = {pixels(x, y), pixels(x, y), pixels(x, y)};
+    }
+    model.points3d.emplace(point.id, std::move(point));
+  }
+  return model;
+}
+
+inline std::string scene_file_name(const std::string& directory) {
+  return directory + "/" + kSceneTruthFolder + "/scene.txt";
+}
+
+}  // namespace detail
+
+/// Writes `scene` into the folder `directory` in the layout of the file comment (folders created
+/// if needed; files in them are overwritten). The estimated camera goes out as COLMAP OPENCV, or
+/// FULL_OPENCV when it has K3 (fitted, not exact, when it has the shear B2, which no COLMAP model
+/// holds). The landscape description (roads, buildings) is not written: its effect is in the true
+/// surfaces and albedo rasters. Throws diachron::Error naming the file that cannot be written, or
+/// for an epoch named like the truth folder.
 inline void write_scene(const Scene& scene, const std::string& directory) {
   DIACHRON_CHECK(!directory.empty(), "write_scene: empty folder name");
+  for (const SyntheticEpoch& epoch : scene.epochs)
+    DIACHRON_CHECK(epoch.name != kSceneTruthFolder && !epoch.name.empty() && epoch.name.find('/') == std::string::npos,
+                   "write_scene: an epoch cannot be named '" << epoch.name << "' (it names its folder)");
   detail::make_scene_directory(directory);
-  detail::make_scene_directory(directory + "/images");
-  const std::string text_path = directory + "/scene.txt";
+  const std::string truth = directory + "/" + kSceneTruthFolder;
+  detail::make_scene_directory(truth);
+  const std::string text_path = detail::scene_file_name(directory);
   std::ofstream out(text_path);
   DIACHRON_CHECK(out.good(), "cannot write '" << text_path << "': the file cannot be created");
+  out.imbue(std::locale::classic());
   out << std::setprecision(std::numeric_limits<double>::max_digits10);
   out << "diachron-synthetic-scene " << kSceneFileVersion << '\n';
+  out << "# The truth of the scene; what each epoch's SfM knows is in ../<epoch>/ (COLMAP model, images, dsm.tif).\n";
   out << "# Frames: world metric, Z up; each epoch in its own frame, X_world = world_from_epoch(X_epoch).\n";
   out << "# Poses: R (cam_from_world, row-major) then centre C; X_cam = R (X - C). Pixels: (0, 0) = centre of the top-left pixel.\n";
   out << "seed " << scene.seed << '\n';
@@ -202,6 +276,9 @@ inline void write_scene(const Scene& scene, const std::string& directory) {
   out << "reference_height " << scene.reference_height_m << '\n';
   out << "epochs " << scene.epochs.size() << '\n';
   for (const SyntheticEpoch& epoch : scene.epochs) {
+    const std::string epoch_dir = directory + "/" + epoch.name;
+    detail::make_scene_directory(epoch_dir);
+    detail::make_scene_directory(epoch_dir + "/images");
     out << "epoch " << epoch.name << '\n';
     out << "gsd " << epoch.gsd_m << '\n';
     out << "world_from_epoch " << epoch.world_from_epoch.scale;
@@ -209,26 +286,25 @@ inline void write_scene(const Scene& scene, const std::string& directory) {
     out << ' ' << epoch.world_from_epoch.translation.x() << ' ' << epoch.world_from_epoch.translation.y() << ' '
         << epoch.world_from_epoch.translation.z() << '\n';
     detail::write_scene_camera(out, "camera", epoch.camera);
-    detail::write_scene_camera(out, "estimated_camera", epoch.estimated_camera);
     out << "images " << epoch.images.size() << '\n';
     for (const SyntheticImage& image : epoch.images) {
       out << "image " << image.name << ' ' << image.row << ' ' << image.column << '\n';
       detail::write_scene_pose(out, "pose_world", image.pose_world);
       detail::write_scene_pose(out, "pose_epoch", image.pose_epoch);
-      detail::write_scene_pose(out, "estimated_pose", image.estimated_pose);
-      write_image_u8(image.pixels, directory + "/images/" + image.name + ".png");
+      write_image_u8(image.pixels, epoch_dir + "/images/" + image.name + ".png");
     }
+    // Tie points are the COLMAP model's 3D points (same order, ids from 1); the truth adds where
+    // they are in the world.
     out << "tie_points " << epoch.tie_points.size() << '\n';
-    for (const TiePoint& tie : epoch.tie_points) {
-      out << "tie " << tie.world.x() << ' ' << tie.world.y() << ' ' << tie.world.z() << ' ' << tie.epoch.x() << ' '
-          << tie.epoch.y() << ' ' << tie.epoch.z() << ' ' << tie.observations.size();
-      for (const ImageObservation& ob : tie.observations) out << ' ' << ob.image << ' ' << ob.pixel.x() << ' ' << ob.pixel.y();
-      out << '\n';
+    for (std::size_t k = 0; k < epoch.tie_points.size(); ++k) {
+      const TiePoint& tie = epoch.tie_points[k];
+      out << "tie " << k + 1 << ' ' << tie.world.x() << ' ' << tie.world.y() << ' ' << tie.world.z() << '\n';
     }
-    write_geotiff_dsm(epoch.dsm, directory + "/" + epoch.name + "_dsm.tif");
-    write_geotiff_dsm(epoch.true_surface, directory + "/" + epoch.name + "_true_surface.tif");
+    write_colmap_text(detail::colmap_model_of_epoch(epoch), epoch_dir);
+    write_geotiff_dsm(epoch.dsm, epoch_dir + "/dsm.tif");
+    write_geotiff_dsm(epoch.true_surface, truth + "/" + epoch.name + "_true_surface.tif");
     if (!epoch.albedo.values.empty())
-      write_geotiff_dsm(detail::albedo_as_dsm(epoch.albedo), directory + "/" + epoch.name + "_albedo.tif");
+      write_geotiff_dsm(detail::albedo_as_dsm(epoch.albedo), truth + "/" + epoch.name + "_albedo.tif");
   }
   out << "check_points " << scene.check_points.size() << '\n';
   for (const CheckPoint& cp : scene.check_points) {
@@ -242,10 +318,17 @@ inline void write_scene(const Scene& scene, const std::string& directory) {
   DIACHRON_CHECK(!out.fail(), "cannot write '" << text_path << "': write failed");
 }
 
-/// Reads a scene written by write_scene(). The landscape is left empty. Throws diachron::Error
-/// naming the file (and line) that is missing or cannot be parsed.
+/// Reads a scene written by write_scene(): the truth from OUT/truth/, and from each epoch's
+/// folder its images, its DSM, and from its COLMAP model the estimated camera and poses and the
+/// tie points (epoch-frame position and observations). The landscape is left empty. Throws
+/// diachron::Error naming the file (and line) that is missing or cannot be parsed, or that
+/// disagrees with the truth (an image or tie point missing from the COLMAP model).
 inline Scene read_scene(const std::string& directory) {
-  const std::string text_path = directory + "/scene.txt";
+  const std::string text_path = detail::scene_file_name(directory);
+  struct stat info {};
+  DIACHRON_CHECK(::stat(text_path.c_str(), &info) == 0 || ::stat((directory + "/scene.txt").c_str(), &info) != 0,
+                 "cannot read '" << text_path << "': '" << directory
+                                 << "' holds a scene in the old single-folder layout (scene.txt at its top); write it again");
   detail::SceneTextReader in(text_path);
   Scene scene;
   in.expect("diachron-synthetic-scene");
@@ -266,6 +349,7 @@ inline Scene read_scene(const std::string& directory) {
     SyntheticEpoch epoch;
     in.expect("epoch");
     epoch.name = in.word("the epoch name");
+    const std::string epoch_dir = directory + "/" + epoch.name;
     in.expect("gsd");
     epoch.gsd_m = in.value<double>("the GSD");
     in.expect("world_from_epoch");
@@ -275,10 +359,23 @@ inline Scene read_scene(const std::string& directory) {
     in.read(t, 3, "the Helmert translation");
     epoch.world_from_epoch.translation = Vec3(t[0], t[1], t[2]);
     epoch.camera = in.camera("camera");
-    epoch.estimated_camera = in.camera("estimated_camera");
+
+    const ColmapModel model = read_colmap_text(epoch_dir);
+    const std::string images_txt = epoch_dir + "/images.txt";
+    DIACHRON_CHECK(model.cameras.size() == 1, "'" << epoch_dir << "/cameras.txt' has " << model.cameras.size()
+                                                  << " cameras, a synthetic epoch one");
+    const ColmapCamera& colmap_camera = model.cameras.begin()->second;
+    epoch.estimated_camera = camera_from_colmap(colmap_camera).model;
+    DIACHRON_CHECK(epoch.estimated_camera.width() == epoch.camera.width() &&
+                       epoch.estimated_camera.height() == epoch.camera.height(),
+                   "'" << epoch_dir << "/cameras.txt': the camera is " << colmap_camera.width << " x "
+                       << colmap_camera.height << ", the true camera " << epoch.camera.width() << " x "
+                       << epoch.camera.height());
+
     in.expect("images");
     const auto n_images = in.value<long long>("the number of images");
     in.check(n_images >= 0 && n_images <= 1000000, "bad number of images");
+    std::map<std::uint32_t, int> index_of_colmap_image;
     for (long long i = 0; i < n_images; ++i) {
       SyntheticImage image;
       in.expect("image");
@@ -287,40 +384,47 @@ inline Scene read_scene(const std::string& directory) {
       image.column = in.value<int>("the image column");
       image.pose_world = in.pose("pose_world");
       image.pose_epoch = in.pose("pose_epoch");
-      image.estimated_pose = in.pose("estimated_pose");
-      image.pixels = detail::read_scene_image(directory + "/images/" + image.name + ".png");
+      const std::optional<std::uint32_t> id = model.find_image(image.name + ".png");
+      DIACHRON_CHECK(id, "'" << images_txt << "' has no image '" << image.name << ".png' (listed in '" << text_path << "')");
+      index_of_colmap_image[*id] = static_cast<int>(i);
+      image.estimated_pose = model.images.at(*id).pose;
+      const std::string png = epoch_dir + "/images/" + image.name + ".png";
+      image.pixels = detail::read_scene_image(png);
       DIACHRON_CHECK(image.pixels.width() == epoch.camera.width() && image.pixels.height() == epoch.camera.height(),
-                     "'" << directory << "/images/" << image.name << ".png' is " << image.pixels.width() << " x "
-                         << image.pixels.height() << ", the camera " << epoch.camera.width() << " x "
-                         << epoch.camera.height());
+                     "'" << png << "' is " << image.pixels.width() << " x " << image.pixels.height() << ", the camera "
+                         << epoch.camera.width() << " x " << epoch.camera.height());
       epoch.images.push_back(std::move(image));
     }
+    DIACHRON_CHECK(model.images.size() == epoch.images.size(),
+                   "'" << images_txt << "' has " << model.images.size() << " images, '" << text_path << "' "
+                       << epoch.images.size() << " for epoch " << epoch.name);
+
     in.expect("tie_points");
     const auto n_ties = in.value<long long>("the number of tie points");
     in.check(n_ties >= 0, "bad number of tie points");
+    DIACHRON_CHECK(static_cast<std::size_t>(n_ties) == model.points3d.size(),
+                   "'" << epoch_dir << "/points3D.txt' has " << model.points3d.size() << " points, '" << text_path
+                       << "' " << n_ties << " tie points for epoch " << epoch.name);
     for (long long k = 0; k < n_ties; ++k) {
       TiePoint tie;
       in.expect("tie");
-      double p[6];
-      in.read(p, 6, "the tie point coordinates");
-      tie.world = Vec3(p[0], p[1], p[2]);
-      tie.epoch = Vec3(p[3], p[4], p[5]);
-      const auto n_obs = in.value<long long>("the number of observations");
-      in.check(n_obs >= 0 && n_obs <= n_images, "bad number of observations");
-      for (long long o = 0; o < n_obs; ++o) {
-        ImageObservation ob;
-        ob.image = in.value<int>("an observation's image");
-        in.check(ob.image >= 0 && ob.image < n_images, "observation of image " + std::to_string(ob.image) +
-                                                          " outside the epoch's " + std::to_string(n_images));
-        in.read(ob.pixel.data(), 2, "an observation's pixel");
-        tie.observations.push_back(ob);
+      const auto id = in.value<long long>("the tie point's point3D id");
+      in.read(tie.world.data(), 3, "the tie point's world position");
+      const auto point = model.points3d.find(static_cast<std::uint64_t>(id));
+      in.check(id >= 0 && point != model.points3d.end(),
+               "tie point " + std::to_string(id) + " is not in '" + epoch_dir + "/points3D.txt'");
+      tie.epoch = point->second.xyz;
+      for (const ColmapTrackElement& element : point->second.track) {
+        const ColmapImage& image = model.images.at(element.image_id);
+        tie.observations.push_back({index_of_colmap_image.at(element.image_id),
+                                    diachron_pixel_from_colmap(image.points2d[element.point2d_index].xy)});
       }
       epoch.tie_points.push_back(std::move(tie));
     }
-    epoch.dsm = read_geotiff_dsm(directory + "/" + epoch.name + "_dsm.tif");
-    epoch.true_surface = read_geotiff_dsm(directory + "/" + epoch.name + "_true_surface.tif");
-    const std::string albedo_path = directory + "/" + epoch.name + "_albedo.tif";
-    struct stat info {};
+    epoch.dsm = read_geotiff_dsm(epoch_dir + "/dsm.tif");
+    const std::string truth = directory + "/" + kSceneTruthFolder + "/" + epoch.name;
+    epoch.true_surface = read_geotiff_dsm(truth + "_true_surface.tif");
+    const std::string albedo_path = truth + "_albedo.tif";
     if (::stat(albedo_path.c_str(), &info) == 0) {
       const Dsm albedo = read_geotiff_dsm(albedo_path);
       epoch.albedo.values = albedo.heights();
