@@ -119,6 +119,9 @@ Config parse_config(const std::string& text) {
 
 struct Outcome {
   bool success = false;
+  bool reported = false;  // the pipeline said success (right or wrong)
+  diachron::RoughCoregistrationTrust trust = diachron::RoughCoregistrationTrust::kNone;
+  double rms_3d_cells = 0.0;
   double error_cells = 0.0;
   std::size_t inliers = 0, matches = 0;
   double seconds = 0.0;
@@ -230,14 +233,18 @@ int main(int argc, char** argv) {
         const HelmertError e = helmert_error_on_overlap(r.epoch2_from_epoch1, c);
         o.error_cells = e.valid ? e.rms / cell : std::numeric_limits<double>::infinity();
         o.success = r.success && e.valid && e.rms < 2.0 * cell;
+        o.reported = r.success;
+        o.trust = r.trust;
+        o.rms_3d_cells = r.rms_3d_cells;
         results[config.name].push_back(o);
         auto& ps = per_source[config.name][source_name];
         ps.first += o.success;
         ps.second += 1;
         if (verbose)
-          std::fprintf(stderr, "case %zu %-13s overlap %.2f rot %6.1f scale %.2f | %-32s %s err %8.2f cells, %4zu/%5zu in %.1f s | %s\n",
+          std::fprintf(stderr, "case %zu %-13s overlap %.2f rot %6.1f scale %.2f | %-32s %s err %8.2f cells, %4zu/%5zu in %.1f s | rms3d %.2f cells, 3D inliers %zu/%zu, trust %s | %s\n",
                        k, source_name.c_str(), c.overlap, c.rotation_deg, c.scale, config.name.c_str(),
-                       o.success ? "OK  " : "FAIL", o.error_cells, o.inliers, o.matches, o.seconds, r.message.c_str());
+                       o.success ? "OK  " : "FAIL", o.error_cells, o.inliers, o.matches, o.seconds, r.rms_3d_cells,
+                       r.inliers_3d.size(), r.lifted.size(), to_string(r.trust), r.message.c_str());
       }
     }
     std::printf("| configuration | success | per source | median 2D inliers | median inlier ratio | median time (s) |\n");
@@ -257,6 +264,26 @@ int main(int argc, char** argv) {
         ps_text += name + " " + std::to_string(counts.first) + "/" + std::to_string(counts.second) + " ";
       std::printf("| %s | %d/%zu (%.0f %%) | %s| %.0f | %.2f | %.2f |\n", config.name.c_str(), ok, v.size(),
                   100.0 * ok / std::max<std::size_t>(v.size(), 1), ps_text.c_str(), median(inl), median(ratio), median(sec));
+    }
+    // How far a reported success can be trusted: wrong = reported success with an error of 2 cells
+    // or more; the trust grade should be low for those and high for the right ones.
+    std::printf("\n| configuration | reported successes | right | wrong | wrong graded low (caught) | right graded low (lost) |\n");
+    std::printf("|---|---|---|---|---|---|\n");
+    for (const auto& config : configs) {
+      int reported = 0, right = 0, wrong = 0, caught = 0, lost = 0;
+      for (const auto& o : results[config.name]) {
+        if (!o.reported) continue;
+        ++reported;
+        const bool high = o.trust == RoughCoregistrationTrust::kHigh;
+        if (o.success) {
+          ++right;
+          lost += !high;
+        } else {
+          ++wrong;
+          caught += !high;
+        }
+      }
+      std::printf("| %s | %d | %d | %d | %d | %d |\n", config.name.c_str(), reported, right, wrong, caught, lost);
     }
   } catch (const std::exception& e) {
     std::cerr << "rough_coregistration_eval: " << e.what() << "\n";
