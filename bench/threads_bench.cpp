@@ -1,6 +1,6 @@
 // Thread scaling of the library's parallel loops (docs/benchmarks.md, "Threads"):
 //   1. parallel_for overhead: 3000 calls of 8 trivial items, the shape of RANSAC's early batches;
-//   2. RANSAC: ransac_similarity2 on 3000 pairs (50 % outliers, 1000 iterations, no early stop);
+//   2. RANSAC: ransac_similarity2 on 3000 and 100000 pairs (50 % outliers, 1000 iterations);
 //   3. tile matching: match_one_to_many with SIFT (features cached per tile) on 640 x 480 tiles.
 // Each row is the median wall time of --runs runs. The machine's load average is printed because
 // the timings only mean something next to it.
@@ -104,17 +104,20 @@ int main(int argc, char** argv) {
     table.add({"parallel_for, 3000 calls x 8 items", std::to_string(t), bench::format_number(ms)});
   }
 
-  const bench::Problem2 problem = bench::make_problem2(3000, 0.5, 7);
-  for (std::size_t t : thread_counts) {
-    RansacOptions o;
-    o.threshold = problem.threshold;
-    o.max_iterations = 1000;
-    o.min_iterations = 1000;
-    o.threads = t;
-    std::size_t inliers = 0;
-    const double ms = median_ms(runs, [&] { inliers = ransac_similarity2(problem.pairs, o).inliers.size(); });
-    table.add({"ransac_similarity2, 3000 pairs, 1000 iterations (" + std::to_string(inliers) + " inliers)",
-               std::to_string(t), bench::format_number(ms)});
+  for (std::size_t n : {std::size_t{3000}, std::size_t{100000}}) {
+    const bench::Problem2 problem = bench::make_problem2(n, 0.5, 7);
+    for (std::size_t t : thread_counts) {
+      RansacOptions o;
+      o.threshold = problem.threshold;
+      o.max_iterations = 1000;
+      o.min_iterations = 1000;
+      o.threads = t;
+      std::size_t inliers = 0;
+      const double ms = median_ms(runs, [&] { inliers = ransac_similarity2(problem.pairs, o).inliers.size(); });
+      table.add({"ransac_similarity2, " + std::to_string(n) + " pairs, 1000 iterations (" + std::to_string(inliers) +
+                     " inliers)",
+                 std::to_string(t), bench::format_number(ms)});
+    }
   }
 
   const Raster<std::uint8_t> master = texture(1280, 960, 1);
