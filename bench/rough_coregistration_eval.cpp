@@ -13,7 +13,8 @@
 //
 // A configuration is IMAGE/MATCHER/TILING/ROTATIONS, e.g. relief/sift/tiles/rot:
 //   IMAGE     stretch2 stretch5 wallis2 wallis5 hillshade multihillshade slope relief
-//   MATCHER   sift rootsift akaze xfeat
+//   MATCHER   sift rootsift akaze xfeat orb, or any of them + "-nomask" (pass_masks off: the
+//             matcher gets no validity mask, as before masks existed)
 //   TILING    tiles (640 x 480, no buffer, the paper's) | whole
 //   ROTATIONS rot (0/90/180/270, always) | norot
 // or default/MATCHER/default/default: RoughCoregistrationOptions{} as shipped.
@@ -29,12 +30,17 @@
 #include <string>
 #include <vector>
 
+#include <opencv2/core.hpp>
+#include <opencv2/features2d.hpp>
+
 #include <diachron/eval/coregistration_case.hpp>
 #include <diachron/io/geotiff.hpp>
 #include <diachron/pipeline/rough_coregistration.hpp>
 #include <diachron/synth/scene.hpp>
 #include <diachron/vision/extractor_pair_matcher.hpp>
 #include <diachron/vision/akaze.hpp>
+#include <diachron/vision/cv_features.hpp>
+#include <diachron/vision/image.hpp>
 #include <diachron/vision/sift.hpp>
 #include <diachron/vision/xfeat.hpp>
 
@@ -88,6 +94,14 @@ Config parse_config(const std::string& text) {
   Config c{text, {}, parts[1]};
   const std::string& image = parts[0];
   auto& o = c.options;
+  const std::string nomask = "-nomask";
+  if (c.matcher.size() > nomask.size() && c.matcher.compare(c.matcher.size() - nomask.size(), nomask.size(), nomask) == 0) {
+    c.matcher.resize(c.matcher.size() - nomask.size());
+    o.pass_masks = false;
+  }
+  DIACHRON_CHECK(c.matcher == "sift" || c.matcher == "rootsift" || c.matcher == "akaze" || c.matcher == "xfeat" ||
+                     c.matcher == "orb",
+                 "unknown matcher '" << c.matcher << "'");
   if (image == "default") return c;
   if (image == "stretch2" || image == "stretch5") {
     o.image_kind = DsmImageKind::kStretch;
@@ -106,8 +120,6 @@ Config parse_config(const std::string& text) {
   } else {
     DIACHRON_CHECK(false, "unknown DSM image '" << image << "'");
   }
-  DIACHRON_CHECK(c.matcher == "sift" || c.matcher == "rootsift" || c.matcher == "akaze" || c.matcher == "xfeat",
-                 "unknown matcher '" << c.matcher << "'");
   DIACHRON_CHECK(parts[2] == "tiles" || parts[2] == "whole", "TILING must be tiles or whole");
   DIACHRON_CHECK(parts[3] == "rot" || parts[3] == "norot", "ROTATIONS must be rot or norot");
   o.use_tiling = parts[2] == "tiles";
@@ -116,6 +128,27 @@ Config parse_config(const std::string& text) {
   o.skip_rotations_if_invariant = false;
   return c;
 }
+
+// ORB (oriented FAST + rotated BRIEF), binary descriptors unpacked one float per bit, features
+// only where the mask allows (cv::Feature2D's mask).
+struct OrbExtractor {
+  int max_features = 2000;
+  static constexpr DescriptorMetric descriptor_metric() { return DescriptorMetric::Hamming; }
+  static constexpr bool rotation_invariant() { return true; }
+  Features extract(const Raster<std::uint8_t>& image) const { return run(image, cv::Mat()); }
+  Features extract(const Raster<std::uint8_t>& image, const Raster<std::uint8_t>& mask) const {
+    return run(image, as_mat(mask));
+  }
+  Features run(const Raster<std::uint8_t>& image, const cv::Mat& mask) const {
+    std::vector<cv::KeyPoint> keypoints;
+    cv::Mat desc;
+    cv::ORB::create(max_features)->detectAndCompute(as_mat(image), mask, keypoints, desc);
+    Features f;
+    for (const cv::KeyPoint& kp : keypoints) f.keypoints.push_back(detail::to_keypoint(kp));
+    f.descriptors = keypoints.empty() ? DescriptorMatrix(0, 256) : unpack_bits(desc);
+    return f;
+  }
+};
 
 struct Outcome {
   bool success = false;
@@ -184,6 +217,7 @@ int main(int argc, char** argv) {
     AkazeOptions ao;
     ao.max_features = max_features;
     const ExtractorPairMatcher<AkazeExtractor> akaze{AkazeExtractor{ao}};
+    const ExtractorPairMatcher<OrbExtractor> orb{OrbExtractor{max_features}};
     std::unique_ptr<XFeatPairMatcher> xfeat;
     for (const auto& c : configs)
       if (c.matcher == "xfeat" && !xfeat) {
@@ -225,6 +259,7 @@ int main(int argc, char** argv) {
         if (config.matcher == "sift") r = rough_coregistration(c.master, c.secondary, sift, config.options);
         else if (config.matcher == "rootsift") r = rough_coregistration(c.master, c.secondary, rootsift, config.options);
         else if (config.matcher == "akaze") r = rough_coregistration(c.master, c.secondary, akaze, config.options);
+        else if (config.matcher == "orb") r = rough_coregistration(c.master, c.secondary, orb, config.options);
         else r = rough_coregistration(c.master, c.secondary, *xfeat, config.options);
         Outcome o;
         o.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
