@@ -1,8 +1,10 @@
 #include <catch2/catch.hpp>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <mutex>
 #include <vector>
 
@@ -306,4 +308,52 @@ TEST_CASE("rough_coregistration_images: a custom DSM image (the docs' example)",
   REQUIRE(report.success);
   CHECK(report.trust == diachron::RoughCoregistrationTrust::kHigh);
   REQUIRE(diachron::helmert_error_on_overlap(report.epoch2_from_epoch1, c).rms < 2.0 * c.secondary.min_cell_size());
+}
+
+namespace {
+
+struct PlainExtractor {
+  diachron::Features extract(const diachron::Raster<std::uint8_t>&) const { return {}; }
+};
+
+// A FeaturePairMatcher whose extractor takes no mask but whose image overload does: the pipeline
+// must call it directly with the masks instead of through the (unmasked) feature cache.
+struct MaskedImageMatcher {
+  PlainExtractor e;
+  std::shared_ptr<std::atomic<int>> masked_calls = std::make_shared<std::atomic<int>>(0);
+  std::shared_ptr<std::atomic<int>> plain_calls = std::make_shared<std::atomic<int>>(0);
+  const PlainExtractor& extractor() const { return e; }
+  bool rotation_invariant() const { return true; }
+  std::vector<diachron::PointMatch> match(const diachron::Features&, const diachron::Features&) const {
+    plain_calls->fetch_add(1);
+    return {};
+  }
+  std::vector<diachron::PointMatch> match(const diachron::Raster<std::uint8_t>&,
+                                          const diachron::Raster<std::uint8_t>&) const {
+    plain_calls->fetch_add(1);
+    return {};
+  }
+  std::vector<diachron::PointMatch> match(const diachron::Raster<std::uint8_t>&, const diachron::Raster<std::uint8_t>&,
+                                          const diachron::Raster<std::uint8_t>&,
+                                          const diachron::Raster<std::uint8_t>&) const {
+    masked_calls->fetch_add(1);
+    return {};
+  }
+};
+
+}  // namespace
+
+TEST_CASE("rough_coregistration: masks reach a FeaturePairMatcher whose extractor takes none", "[pipeline]") {
+  STATIC_REQUIRE(diachron::is_feature_pair_matcher_v<MaskedImageMatcher>);
+  STATIC_REQUIRE(diachron::detail::pipeline_matcher<MaskedImageMatcher>::masks);
+  STATIC_REQUIRE_FALSE(diachron::detail::pipeline_matcher<MaskedImageMatcher>::cache);
+  // SIFT's extractor takes masks, so it keeps the cache and gets masks through it.
+  using Sift = diachron::ExtractorPairMatcher<diachron::SiftExtractor>;
+  STATIC_REQUIRE(diachron::detail::pipeline_matcher<Sift>::cache);
+  STATIC_REQUIRE(diachron::detail::pipeline_matcher<Sift>::masks);
+  const diachron::Dsm dsm = world_with_hole();
+  const MaskedImageMatcher matcher;
+  diachron::rough_coregistration(dsm, dsm, matcher);
+  CHECK(matcher.masked_calls->load() == 1);
+  CHECK(matcher.plain_calls->load() == 0);
 }

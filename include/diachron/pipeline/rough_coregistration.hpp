@@ -334,13 +334,21 @@ inline Raster<std::uint8_t> matching_mask(const GeoImage& image, const Dsm& dsm,
   return mask;
 }
 
-// Whether the matcher the pipeline calls (the feature cache around a FeaturePairMatcher, else the
-// matcher itself) takes masks. A specialisation, so FeatureCacheMatcher<M> is only named for the
-// matchers it accepts.
+// How the pipeline calls matcher M: through the feature cache (`cache`) or directly, and whether
+// with masks (`masks`). The cache is used for FeaturePairMatchers, except when only the matcher,
+// not its extractor, takes masks: the cache would drop them. A specialisation, so
+// FeatureCacheMatcher<M> is only named for the matchers it accepts.
 template <class M, bool = is_feature_pair_matcher_v<M>>
-struct pipeline_takes_masks : std::bool_constant<is_masked_pair_matcher_v<M>> {};
+struct pipeline_matcher {
+  static constexpr bool cache = false;
+  static constexpr bool masks = is_masked_pair_matcher_v<M>;
+};
 template <class M>
-struct pipeline_takes_masks<M, true> : std::bool_constant<is_masked_pair_matcher_v<FeatureCacheMatcher<M>>> {};
+struct pipeline_matcher<M, true> {
+  static constexpr bool cache_masked = is_masked_pair_matcher_v<FeatureCacheMatcher<M>>;
+  static constexpr bool cache = cache_masked || !is_masked_pair_matcher_v<M>;
+  static constexpr bool masks = cache_masked || is_masked_pair_matcher_v<M>;
+};
 
 /// True when image pixel `px` lies at least `min_distance` DSM pixels away from any hole of `dsm`.
 inline bool away_from_holes(const GeoImage& image, const Dsm& dsm, const Raster<float>& distance,
@@ -375,15 +383,15 @@ RoughCoregistrationReport rough_coregistration_images(const GeoImage& master, co
   // One extraction per distinct tile instead of one per tile pair (M + N instead of 2 M N), and the
   // master's tiles, which no hypothesis rotates, only once for all hypotheses.
   [[maybe_unused]] const auto cached_matcher = [&] {
-    if constexpr (is_feature_pair_matcher_v<Matcher>)
+    if constexpr (detail::pipeline_matcher<Matcher>::cache)
       return FeatureCacheMatcher<Matcher>(matcher);
     else
       return 0;
   }();
   const Raster<float> master_holes = detail::distance_to_holes(master_dsm);
   const Raster<float> secondary_holes = detail::distance_to_holes(secondary_dsm);
-  // Masks only for matchers that take them (the cache is masked when its extractor is).
-  const bool use_masks = detail::pipeline_takes_masks<Matcher>::value && options.pass_masks;
+  // Masks only for matchers that take them (see detail::pipeline_matcher).
+  const bool use_masks = detail::pipeline_matcher<Matcher>::masks && options.pass_masks;
   const Raster<std::uint8_t> master_mask =
       use_masks ? detail::matching_mask(master, master_dsm, master_holes, options.min_hole_distance_px)
                 : Raster<std::uint8_t>();
@@ -399,7 +407,7 @@ RoughCoregistrationReport rough_coregistration_images(const GeoImage& master, co
     const Raster<std::uint8_t> s_mask =
         use_masks ? rotate_quarter_turns(secondary_mask, rotation_deg / 90) : Raster<std::uint8_t>();
     OneToManyResult r;
-    if constexpr (is_feature_pair_matcher_v<Matcher>) {
+    if constexpr (detail::pipeline_matcher<Matcher>::cache) {
       r = match_one_to_many(m, master_mask, s, s_mask, master_tiler, secondary_tiler, cached_matcher, one_to_many);
     } else {
       r = match_one_to_many(m, master_mask, s, s_mask, master_tiler, secondary_tiler, matcher, one_to_many);
