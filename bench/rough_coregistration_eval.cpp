@@ -13,7 +13,8 @@
 //
 // A configuration is IMAGE/MATCHER/TILING/ROTATIONS, e.g. relief/sift/tiles/rot:
 //   IMAGE     stretch2 stretch5 wallis2 wallis5 hillshade multihillshade slope relief
-//   MATCHER   sift rootsift akaze xfeat
+//   MATCHER   sift rootsift akaze xfeat orb, or any of them + "-nomask" (pass_masks off: the
+//             matcher gets no validity mask, as before masks existed)
 //   TILING    tiles (640 x 480, no buffer, the paper's) | whole
 //   ROTATIONS rot (0/90/180/270, always) | norot
 // or default/MATCHER/default/default: RoughCoregistrationOptions{} as shipped.
@@ -29,12 +30,17 @@
 #include <string>
 #include <vector>
 
+#include <opencv2/core.hpp>
+#include <opencv2/features2d.hpp>
+
 #include <diachron/eval/coregistration_case.hpp>
 #include <diachron/io/geotiff.hpp>
 #include <diachron/pipeline/rough_coregistration.hpp>
 #include <diachron/synth/scene.hpp>
 #include <diachron/vision/extractor_pair_matcher.hpp>
 #include <diachron/vision/akaze.hpp>
+#include <diachron/vision/cv_features.hpp>
+#include <diachron/vision/image.hpp>
 #include <diachron/vision/sift.hpp>
 #include <diachron/vision/xfeat.hpp>
 
@@ -88,6 +94,14 @@ Config parse_config(const std::string& text) {
   Config c{text, {}, parts[1]};
   const std::string& image = parts[0];
   auto& o = c.options;
+  const std::string nomask = "-nomask";
+  if (c.matcher.size() > nomask.size() && c.matcher.compare(c.matcher.size() - nomask.size(), nomask.size(), nomask) == 0) {
+    c.matcher.resize(c.matcher.size() - nomask.size());
+    o.pass_masks = false;
+  }
+  DIACHRON_CHECK(c.matcher == "sift" || c.matcher == "rootsift" || c.matcher == "akaze" || c.matcher == "xfeat" ||
+                     c.matcher == "orb",
+                 "unknown matcher '" << c.matcher << "'");
   if (image == "default") return c;
   if (image == "stretch2" || image == "stretch5") {
     o.image_kind = DsmImageKind::kStretch;
@@ -106,8 +120,6 @@ Config parse_config(const std::string& text) {
   } else {
     DIACHRON_CHECK(false, "unknown DSM image '" << image << "'");
   }
-  DIACHRON_CHECK(c.matcher == "sift" || c.matcher == "rootsift" || c.matcher == "akaze" || c.matcher == "xfeat",
-                 "unknown matcher '" << c.matcher << "'");
   DIACHRON_CHECK(parts[2] == "tiles" || parts[2] == "whole", "TILING must be tiles or whole");
   DIACHRON_CHECK(parts[3] == "rot" || parts[3] == "norot", "ROTATIONS must be rot or norot");
   o.use_tiling = parts[2] == "tiles";
@@ -117,8 +129,32 @@ Config parse_config(const std::string& text) {
   return c;
 }
 
+// ORB (oriented FAST + rotated BRIEF), binary descriptors unpacked one float per bit, features
+// only where the mask allows (cv::Feature2D's mask).
+struct OrbExtractor {
+  int max_features = 2000;
+  static constexpr DescriptorMetric descriptor_metric() { return DescriptorMetric::Hamming; }
+  static constexpr bool rotation_invariant() { return true; }
+  Features extract(const Raster<std::uint8_t>& image) const { return run(image, cv::Mat()); }
+  Features extract(const Raster<std::uint8_t>& image, const Raster<std::uint8_t>& mask) const {
+    return run(image, as_mat(mask));
+  }
+  Features run(const Raster<std::uint8_t>& image, const cv::Mat& mask) const {
+    std::vector<cv::KeyPoint> keypoints;
+    cv::Mat desc;
+    cv::ORB::create(max_features)->detectAndCompute(as_mat(image), mask, keypoints, desc);
+    Features f;
+    for (const cv::KeyPoint& kp : keypoints) f.keypoints.push_back(detail::to_keypoint(kp));
+    f.descriptors = keypoints.empty() ? DescriptorMatrix(0, 256) : unpack_bits(desc);
+    return f;
+  }
+};
+
 struct Outcome {
   bool success = false;
+  bool reported = false;  // the pipeline said success (right or wrong)
+  diachron::RoughCoregistrationTrust trust = diachron::RoughCoregistrationTrust::kNone;
+  double rms_3d_cells = 0.0;
   double error_cells = 0.0;
   std::size_t inliers = 0, matches = 0;
   double seconds = 0.0;
@@ -181,6 +217,7 @@ int main(int argc, char** argv) {
     AkazeOptions ao;
     ao.max_features = max_features;
     const ExtractorPairMatcher<AkazeExtractor> akaze{AkazeExtractor{ao}};
+    const ExtractorPairMatcher<OrbExtractor> orb{OrbExtractor{max_features}};
     std::unique_ptr<XFeatPairMatcher> xfeat;
     for (const auto& c : configs)
       if (c.matcher == "xfeat" && !xfeat) {
@@ -222,6 +259,7 @@ int main(int argc, char** argv) {
         if (config.matcher == "sift") r = rough_coregistration(c.master, c.secondary, sift, config.options);
         else if (config.matcher == "rootsift") r = rough_coregistration(c.master, c.secondary, rootsift, config.options);
         else if (config.matcher == "akaze") r = rough_coregistration(c.master, c.secondary, akaze, config.options);
+        else if (config.matcher == "orb") r = rough_coregistration(c.master, c.secondary, orb, config.options);
         else r = rough_coregistration(c.master, c.secondary, *xfeat, config.options);
         Outcome o;
         o.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -230,14 +268,18 @@ int main(int argc, char** argv) {
         const HelmertError e = helmert_error_on_overlap(r.epoch2_from_epoch1, c);
         o.error_cells = e.valid ? e.rms / cell : std::numeric_limits<double>::infinity();
         o.success = r.success && e.valid && e.rms < 2.0 * cell;
+        o.reported = r.success;
+        o.trust = r.trust;
+        o.rms_3d_cells = r.rms_3d_cells;
         results[config.name].push_back(o);
         auto& ps = per_source[config.name][source_name];
         ps.first += o.success;
         ps.second += 1;
         if (verbose)
-          std::fprintf(stderr, "case %zu %-13s overlap %.2f rot %6.1f scale %.2f | %-32s %s err %8.2f cells, %4zu/%5zu in %.1f s | %s\n",
+          std::fprintf(stderr, "case %zu %-13s overlap %.2f rot %6.1f scale %.2f | %-32s %s err %8.2f cells, %4zu/%5zu in %.1f s | rms3d %.2f cells, 3D inliers %zu/%zu, trust %s | %s\n",
                        k, source_name.c_str(), c.overlap, c.rotation_deg, c.scale, config.name.c_str(),
-                       o.success ? "OK  " : "FAIL", o.error_cells, o.inliers, o.matches, o.seconds, r.message.c_str());
+                       o.success ? "OK  " : "FAIL", o.error_cells, o.inliers, o.matches, o.seconds, r.rms_3d_cells,
+                       r.inliers_3d.size(), r.lifted.size(), to_string(r.trust), r.message.c_str());
       }
     }
     std::printf("| configuration | success | per source | median 2D inliers | median inlier ratio | median time (s) |\n");
@@ -257,6 +299,26 @@ int main(int argc, char** argv) {
         ps_text += name + " " + std::to_string(counts.first) + "/" + std::to_string(counts.second) + " ";
       std::printf("| %s | %d/%zu (%.0f %%) | %s| %.0f | %.2f | %.2f |\n", config.name.c_str(), ok, v.size(),
                   100.0 * ok / std::max<std::size_t>(v.size(), 1), ps_text.c_str(), median(inl), median(ratio), median(sec));
+    }
+    // How far a reported success can be trusted: wrong = reported success with an error of 2 cells
+    // or more; the trust grade should be low for those and high for the right ones.
+    std::printf("\n| configuration | reported successes | right | wrong | wrong graded low (caught) | right graded low (lost) |\n");
+    std::printf("|---|---|---|---|---|---|\n");
+    for (const auto& config : configs) {
+      int reported = 0, right = 0, wrong = 0, caught = 0, lost = 0;
+      for (const auto& o : results[config.name]) {
+        if (!o.reported) continue;
+        ++reported;
+        const bool high = o.trust == RoughCoregistrationTrust::kHigh;
+        if (o.success) {
+          ++right;
+          lost += !high;
+        } else {
+          ++wrong;
+          caught += !high;
+        }
+      }
+      std::printf("| %s | %d | %d | %d | %d | %d |\n", config.name.c_str(), reported, right, wrong, caught, lost);
     }
   } catch (const std::exception& e) {
     std::cerr << "rough_coregistration_eval: " << e.what() << "\n";

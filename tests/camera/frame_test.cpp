@@ -102,4 +102,9 @@ TEST_CASE("Frame<FraserAffine>: moving the frame by a similarity keeps its proje
   REQUIRE(ray_moved);
   CHECK((ray_moved->direction - r * ray->direction).norm() <= 1e-12);
   CHECK((ray_moved->origin - (s * r * ray->origin + t)).norm() <= 1e-6);
+  // The Helmert3 overload is the same move.
+  const Frame<FraserAffine> by_helmert = frame.transformed(diachron::Helmert3{s, r, t});
+  const Vec3 x(4.2e5, 5.1e6, 80.0);
+  REQUIRE(by_helmert.project(s * r * x + t));
+  CHECK((*by_helmert.project(s * r * x + t) - *moved.project(s * r * x + t)).norm() == 0.0);
 }

@@ -80,6 +80,19 @@ TEST_CASE("Pose: transformed by a similarity keeps camera-frame directions", "[c
   }
 }
 
+TEST_CASE("Pose: transformed by a Helmert3 equals transformed by its (scale, R, t)", "[camera]") {
+  const Pose pose = Pose::from_yaw_pitch_roll(Vec3(10.0, 20.0, 1500.0), 0.3, 0.05, -0.02);
+  const diachron::Helmert3 h{1.37, rotation(0.4, Vec3(0.2, 0.1, 1.0)), Vec3(1e5, -2e4, 300.0)};
+  const Pose by_parts = pose.transformed(h.scale, h.rotation, h.translation);
+  const Pose by_helmert = pose.transformed(h);
+  CHECK(by_helmert.centre() == by_parts.centre());
+  CHECK(by_helmert.cam_from_world_rotation() == by_parts.cam_from_world_rotation());
+  // The Helmert's own map and the moved pose agree: camera coordinates scale by s.
+  const Vec3 x(300, -200, 50);
+  CHECK((by_helmert.cam_from_world(h(x)) - h.scale * pose.cam_from_world(x)).norm() <= 1e-9);
+  CHECK_THROWS_AS(pose.transformed(diachron::Helmert3{0.0, Mat3::Identity(), Vec3::Zero()}), Error);
+}
+
 TEST_CASE("Pose: bad arguments throw diachron::Error", "[camera]") {
   Mat3 reflection = Mat3::Identity();
   reflection(2, 2) = -1.0;

@@ -1,7 +1,12 @@
 #include <catch2/catch.hpp>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <limits>
+#include <memory>
+#include <mutex>
+#include <vector>
 
 #include <diachron/eval/coregistration_case.hpp>
 #include <diachron/io/geotiff.hpp>
@@ -136,4 +141,219 @@ TEST_CASE("rough_coregistration: recovers a fixed transform of a real DEM", "[pi
   REQUIRE(report.success);
   const auto err = diachron::helmert_error_on_overlap(report.epoch2_from_epoch1, c);
   REQUIRE(err.rms < 2.0 * c.secondary.min_cell_size());
+}
+
+namespace {
+
+// The synthetic terrain with a round hole of radius 20 cells at (200, 150).
+diachron::Dsm world_with_hole() {
+  const diachron::Dsm world = synthetic_world();
+  diachron::Raster<float> z = world.heights();
+  for (int y = 0; y < z.height(); ++y)
+    for (int x = 0; x < z.width(); ++x)
+      if (std::hypot(x - 200.0, y - 150.0) < 20.0) z(x, y) = std::numeric_limits<float>::quiet_NaN();
+  return diachron::Dsm(std::move(z), world.transform(), "EPSG:32632");
+}
+
+// Matches from the truth of case `c`: master DSM-image pixels on a grid, mapped through the true
+// Helmert into the secondary DSM image, each moved by a deterministic offset of up to `noise_px`
+// secondary pixels in x and y (0 = exact).
+std::vector<diachron::PointMatch> truth_matches(const diachron::CoregistrationCase& c, double noise_px) {
+  std::vector<diachron::PointMatch> out;
+  int k = 0;
+  for (int y = 10; y < c.master.height() - 10; y += 12)
+    for (int x = 10; x < c.master.width() - 10; x += 12) {
+      const Eigen::Vector2d a(x, y);
+      const Eigen::Vector2d xy = c.master.pixel_to_world(a);
+      const double z = c.master.height_at(xy);
+      if (!std::isfinite(z)) continue;
+      const Eigen::Vector3d x2 = c.secondary_from_master(Eigen::Vector3d(xy.x(), xy.y(), z));
+      Eigen::Vector2d b = c.secondary.world_to_pixel(x2.head<2>());
+      if (!std::isfinite(c.secondary.height_at(x2.head<2>()))) continue;
+      // A fixed pseudo-random pattern in [-1, 1]: the same offsets in every run.
+      ++k;
+      b += noise_px * Eigen::Vector2d(std::sin(k * 12.9898) , std::cos(k * 78.233));
+      out.push_back(diachron::PointMatch{a, b, 1.0});
+    }
+  return out;
+}
+
+}  // namespace
+
+TEST_CASE("rough_coregistration: a masked matcher receives the DSM validity eroded by the hole margin",
+          "[pipeline]") {
+  const diachron::Dsm dsm = world_with_hole();
+  std::mutex mutex;
+  std::vector<diachron::Raster<std::uint8_t>> masks;
+  auto recording = diachron::make_pair_matcher(
+      [&](const diachron::Raster<std::uint8_t>&, const diachron::Raster<std::uint8_t>&,
+          const diachron::Raster<std::uint8_t>& mask_a, const diachron::Raster<std::uint8_t>& mask_b) {
+        std::lock_guard<std::mutex> lock(mutex);
+        masks.push_back(mask_a);
+        masks.push_back(mask_b);
+        return std::vector<diachron::PointMatch>{};
+      },
+      true);
+  diachron::RoughCoregistrationOptions options;
+  const auto report = diachron::rough_coregistration(dsm, dsm, recording, options);
+  REQUIRE_FALSE(report.success);  // no matches
+  REQUIRE(report.hypotheses.size() == 1);  // the flag of make_pair_matcher was heard
+  REQUIRE(masks.size() == 2);
+  const diachron::Raster<float> distance = diachron::detail::distance_to_holes(dsm);
+  for (const auto& mask : masks) {
+    REQUIRE(mask.width() == dsm.width());
+    REQUIRE(mask.height() == dsm.height());
+    std::size_t mismatches = 0, zeros = 0;
+    for (int y = 0; y < dsm.height(); ++y)
+      for (int x = 0; x < dsm.width(); ++x) {
+        const bool expected = distance(x, y) >= options.min_hole_distance_px;
+        mismatches += (mask(x, y) != 0) != expected;
+        zeros += mask(x, y) == 0;
+      }
+    REQUIRE(mismatches == 0);
+    // The hole (about pi 20^2 = 1257 cells) and its 6-cell rim (about 870 more) are masked.
+    REQUIRE(zeros > 1800);
+    REQUIRE(zeros < 2400);
+    CHECK(mask(200, 150) == 0);        // in the hole
+    CHECK(mask(200 + 23, 150) == 0);   // 3 cells from its edge
+    CHECK(mask(200 + 30, 150) == 255); // 10 cells from its edge
+    CHECK(mask(5, 5) == 255);          // the DSM's border is not a hole
+  }
+  // Switched off, the matcher is called without masks (it then sees all-valid ones).
+  masks.clear();
+  options.pass_masks = false;
+  diachron::rough_coregistration(dsm, dsm, recording, options);
+  REQUIRE(masks.size() == 2);
+  for (const auto& mask : masks)
+    for (int y = 0; y < mask.height(); ++y)
+      for (int x = 0; x < mask.width(); ++x) REQUIRE(mask(x, y) == 255);
+}
+
+TEST_CASE("rough_coregistration: the trust grade separates matches that agree in 3D from ones that do not",
+          "[pipeline]") {
+  const auto c = synthetic_case(4);
+  const double cell = c.secondary.min_cell_size();
+  auto matcher_with_noise = [&](double noise_px) {
+    return diachron::make_pair_matcher(
+        [&c, noise_px](const diachron::Raster<std::uint8_t>&, const diachron::Raster<std::uint8_t>&) {
+          return truth_matches(c, noise_px);
+        },
+        true);
+  };
+  diachron::RoughCoregistrationOptions options;
+  options.min_hole_distance_px = 0.0;  // keep every synthetic match
+
+  const auto exact = diachron::rough_coregistration(c.master, c.secondary, matcher_with_noise(0.0), options);
+  INFO(exact.message);
+  REQUIRE(exact.success);
+  CHECK(exact.trust == diachron::RoughCoregistrationTrust::kHigh);
+  CHECK(exact.rms_3d_cells < 0.5);
+  CHECK(exact.rms_3d_cells == Approx(exact.rms_3d / cell));
+  CHECK(diachron::helmert_error_on_overlap(exact.epoch2_from_epoch1, c).rms < 0.5 * cell);
+
+  // Offsets of up to 8 secondary pixels pass the 10 px 2D RANSAC and the 10-cell 3D guard, so the
+  // run succeeds, but its 3D residuals are several cells: graded low.
+  const auto noisy = diachron::rough_coregistration(c.master, c.secondary, matcher_with_noise(8.0), options);
+  INFO(noisy.message);
+  REQUIRE(noisy.success);
+  CHECK(noisy.rms_3d_cells > options.trusted_rms_3d_cells);
+  CHECK(noisy.trust == diachron::RoughCoregistrationTrust::kLow);
+  CHECK(noisy.message.find("trust low") != std::string::npos);
+
+  // The check turns such a result into a failure with the reason.
+  options.max_rms_3d_cells = 2.0;
+  const auto rejected = diachron::rough_coregistration(c.master, c.secondary, matcher_with_noise(8.0), options);
+  REQUIRE_FALSE(rejected.success);
+  CHECK(rejected.trust == diachron::RoughCoregistrationTrust::kNone);
+  CHECK(rejected.message.find("max_rms_3d_cells") != std::string::npos);
+
+  // Too few 3D inliers for a high grade, however small the residuals.
+  options.max_rms_3d_cells = std::numeric_limits<double>::infinity();
+  options.trusted_min_inliers_3d = 100000;
+  const auto few = diachron::rough_coregistration(c.master, c.secondary, matcher_with_noise(0.0), options);
+  REQUIRE(few.success);
+  CHECK(few.trust == diachron::RoughCoregistrationTrust::kLow);
+}
+
+TEST_CASE("rough_coregistration_images: a custom DSM image (the docs' example)", "[pipeline]") {
+  const auto c = synthetic_case(6);
+  const diachron::Dsm& master_dsm = c.master;
+  const diachron::Dsm& secondary_dsm = c.secondary;
+  const auto matcher = sift_matcher();
+  // --- docs/rough-coregistration.md, "A custom DSM image" (keep in sync) ---
+  // Any 8-bit image on the DSM's grid: here the slope image brightened by a gamma of 0.5, so gentle
+  // slopes get more grey levels. Its geotransform is the DSM's; the mask (optional) says where it
+  // shows data: the pipeline also masks DSM holes and their rim for matchers that take masks.
+  auto my_image = [](const diachron::Dsm& dsm) {
+    diachron::GeoImage out{diachron::slope_image(dsm), dsm.transform()};
+    out.mask = diachron::Raster<std::uint8_t>(dsm.width(), dsm.height(), 0);
+    for (int y = 0; y < dsm.height(); ++y)
+      for (int x = 0; x < dsm.width(); ++x) {
+        const double v = out.image(x, y) / 255.0;
+        out.image(x, y) = static_cast<std::uint8_t>(std::lround(255.0 * std::sqrt(v)));
+        if (dsm.valid(x, y)) out.mask(x, y) = 255;
+      }
+    return out;
+  };
+  const diachron::GeoImage master_image = my_image(master_dsm);
+  const diachron::GeoImage secondary_image = my_image(secondary_dsm);
+  diachron::RoughCoregistrationOptions options;  // image_kind is not used: the images are given
+  const diachron::RoughCoregistrationReport report = diachron::rough_coregistration_images(
+      master_image, master_dsm, secondary_image, secondary_dsm, matcher, options);
+  if (report.success && report.trust == diachron::RoughCoregistrationTrust::kHigh) {
+    // report.epoch2_from_epoch1 maps epoch-1 (master) world points into epoch 2
+  }
+  // --- end of the docs' example ---
+  INFO(report.message);
+  REQUIRE(report.success);
+  CHECK(report.trust == diachron::RoughCoregistrationTrust::kHigh);
+  REQUIRE(diachron::helmert_error_on_overlap(report.epoch2_from_epoch1, c).rms < 2.0 * c.secondary.min_cell_size());
+}
+
+namespace {
+
+struct PlainExtractor {
+  diachron::Features extract(const diachron::Raster<std::uint8_t>&) const { return {}; }
+};
+
+// A FeaturePairMatcher whose extractor takes no mask but whose image overload does: the pipeline
+// must call it directly with the masks instead of through the (unmasked) feature cache.
+struct MaskedImageMatcher {
+  PlainExtractor e;
+  std::shared_ptr<std::atomic<int>> masked_calls = std::make_shared<std::atomic<int>>(0);
+  std::shared_ptr<std::atomic<int>> plain_calls = std::make_shared<std::atomic<int>>(0);
+  const PlainExtractor& extractor() const { return e; }
+  bool rotation_invariant() const { return true; }
+  std::vector<diachron::PointMatch> match(const diachron::Features&, const diachron::Features&) const {
+    plain_calls->fetch_add(1);
+    return {};
+  }
+  std::vector<diachron::PointMatch> match(const diachron::Raster<std::uint8_t>&,
+                                          const diachron::Raster<std::uint8_t>&) const {
+    plain_calls->fetch_add(1);
+    return {};
+  }
+  std::vector<diachron::PointMatch> match(const diachron::Raster<std::uint8_t>&, const diachron::Raster<std::uint8_t>&,
+                                          const diachron::Raster<std::uint8_t>&,
+                                          const diachron::Raster<std::uint8_t>&) const {
+    masked_calls->fetch_add(1);
+    return {};
+  }
+};
+
+}  // namespace
+
+TEST_CASE("rough_coregistration: masks reach a FeaturePairMatcher whose extractor takes none", "[pipeline]") {
+  STATIC_REQUIRE(diachron::is_feature_pair_matcher_v<MaskedImageMatcher>);
+  STATIC_REQUIRE(diachron::detail::pipeline_matcher<MaskedImageMatcher>::masks);
+  STATIC_REQUIRE_FALSE(diachron::detail::pipeline_matcher<MaskedImageMatcher>::cache);
+  // SIFT's extractor takes masks, so it keeps the cache and gets masks through it.
+  using Sift = diachron::ExtractorPairMatcher<diachron::SiftExtractor>;
+  STATIC_REQUIRE(diachron::detail::pipeline_matcher<Sift>::cache);
+  STATIC_REQUIRE(diachron::detail::pipeline_matcher<Sift>::masks);
+  const diachron::Dsm dsm = world_with_hole();
+  const MaskedImageMatcher matcher;
+  diachron::rough_coregistration(dsm, dsm, matcher);
+  CHECK(matcher.masked_calls->load() == 1);
+  CHECK(matcher.plain_calls->load() == 0);
 }

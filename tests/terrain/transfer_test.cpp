@@ -3,6 +3,8 @@
 #include <cmath>
 #include <limits>
 #include <optional>
+#include <string>
+#include <type_traits>
 
 #include <catch2/catch.hpp>
 #include <Eigen/Geometry>
@@ -142,7 +144,58 @@ TEST_CASE("Transfer: identity transform, misses and the separate lift", "[terrai
   REQUIRE(ground);
   CHECK((*ground - Vector3d(500.0, 500.0, 10.0)).norm() < 1e-9);
   CHECK(lift.intersect(Vector2d(-5000.0, 500.0)).outcome == diachron::RayDsmOutcome::above_surface);
-  CHECK(lift.intersect(Vector2d(std::nan(""), 500.0)).outcome == diachron::RayDsmOutcome::outside);
+  CHECK(lift.intersect(Vector2d(std::nan(""), 500.0)).outcome == diachron::RayDsmOutcome::no_ray);
+}
+
+namespace {
+
+// A frame that cannot unproject some pixels (x < 0), as a camera whose distortion inversion fails.
+struct PartialFrame {
+  PinholeFrame inner;
+  std::optional<diachron::Ray3> ray(const Vector2d& px) const {
+    if (px.x() < 0.0) return std::nullopt;
+    return inner.ray(px);
+  }
+};
+
+diachron::Dsm temporary_dsm() { return plane_dsm(Plane{10.0, 0.0, 0.0}); }
+
+// Detection: is `make_dsm_transfer(frame, dsm-expression, frame)` well-formed?
+template <class DsmExpr, class = void>
+struct can_make_transfer : std::false_type {};
+template <class DsmExpr>
+struct can_make_transfer<DsmExpr, std::void_t<decltype(diachron::make_dsm_transfer(
+                                      std::declval<PinholeFrame>(), std::declval<DsmExpr>(),
+                                      std::declval<PinholeFrame>()))>> : std::true_type {};
+
+}  // namespace
+
+TEST_CASE("Transfer: a pixel that cannot be unprojected has its own reason", "[terrain]") {
+  const Dsm dsm = plane_dsm(Plane{10.0, 0.0, 0.0});
+  const diachron::DsmLift<PartialFrame> lift(PartialFrame{make_frame(Vector3d(500.0, 500.0, 1010.0))}, dsm);
+  const diachron::RayDsmResult r = lift.intersect(Vector2d(-1.0, 500.0));
+  CHECK_FALSE(r.success);
+  CHECK(r.outcome == diachron::RayDsmOutcome::no_ray);
+  CHECK(std::string(diachron::to_string(r.outcome)).find("unprojected") != std::string::npos);
+  // A pixel with a ray that misses the grid is still `outside`-like, not no_ray.
+  CHECK(lift.intersect(Vector2d(1.0e7, 500.0)).outcome != diachron::RayDsmOutcome::no_ray);
+  CHECK(lift.intersect(Vector2d(500.0, 500.0)).success);
+}
+
+TEST_CASE("Transfer: a temporary DSM does not compile where the DSM is kept by pointer", "[terrain]") {
+  // make_dsm_transfer(frame, read_geotiff_dsm("x.tif"), frame) used to compile and dangle.
+  STATIC_REQUIRE(can_make_transfer<const Dsm&>::value);
+  STATIC_REQUIRE(can_make_transfer<Dsm&>::value);
+  STATIC_REQUIRE_FALSE(can_make_transfer<Dsm>::value);
+  STATIC_REQUIRE_FALSE(can_make_transfer<Dsm&&>::value);
+  STATIC_REQUIRE_FALSE(can_make_transfer<decltype(temporary_dsm())>::value);
+  STATIC_REQUIRE(std::is_constructible_v<diachron::DsmLift<PinholeFrame>, PinholeFrame, const Dsm&>);
+  STATIC_REQUIRE_FALSE(std::is_constructible_v<diachron::DsmLift<PinholeFrame>, PinholeFrame, Dsm>);
+  STATIC_REQUIRE_FALSE(std::is_constructible_v<diachron::DsmLift<PinholeFrame>, PinholeFrame, const Dsm&&>);
+  STATIC_REQUIRE(std::is_constructible_v<diachron::DsmTransfer<PinholeFrame, PinholeFrame>, PinholeFrame,
+                                         const Dsm&, PinholeFrame>);
+  STATIC_REQUIRE_FALSE(
+      std::is_constructible_v<diachron::DsmTransfer<PinholeFrame, PinholeFrame>, PinholeFrame, Dsm, PinholeFrame>);
 }
 
 TEST_CASE("Transfer: MapTransfer wraps plain and optional 2D maps", "[terrain]") {

@@ -2,6 +2,7 @@
 
 #include <atomic>
 #include <memory>
+#include <type_traits>
 
 #include <diachron/tiling/feature_cache_matcher.hpp>
 #include <diachron/tiling/grid_tiler.hpp>
@@ -87,4 +88,72 @@ TEST_CASE("FeatureCacheMatcher: different content at the same size is not confus
   const auto fb = cached.features(a);
   REQUIRE(fa->keypoints[0].position != fb->keypoints[0].position);
   REQUIRE(m.ex.calls->load() == 2);
+}
+
+namespace {
+
+// Masked: the brightest pixel where the mask is nonzero.
+struct MaskedPeakExtractor {
+  std::shared_ptr<std::atomic<int>> calls = std::make_shared<std::atomic<int>>(0);
+  diachron::Features extract(const diachron::Raster<std::uint8_t>& image) const {
+    return extract(image, diachron::Raster<std::uint8_t>(image.width(), image.height(), 1));
+  }
+  diachron::Features extract(const diachron::Raster<std::uint8_t>& image,
+                             const diachron::Raster<std::uint8_t>& mask) const {
+    calls->fetch_add(1);
+    diachron::Features f;
+    int bx = -1, by = -1;
+    for (int y = 0; y < image.height(); ++y)
+      for (int x = 0; x < image.width(); ++x)
+        if (mask(x, y) && (bx < 0 || image(x, y) > image(bx, by))) bx = x, by = y;
+    if (bx < 0) return f;
+    diachron::Keypoint k;
+    k.position = {double(bx), double(by)};
+    f.keypoints.push_back(k);
+    f.descriptors = diachron::DescriptorMatrix::Constant(1, 1, float(image(bx, by)));
+    return f;
+  }
+};
+
+struct MaskedPeakMatcher {
+  MaskedPeakExtractor ex;
+  const MaskedPeakExtractor& extractor() const { return ex; }
+  std::vector<diachron::PointMatch> match(const diachron::Features& a, const diachron::Features& b) const {
+    if (a.empty() || b.empty()) return {};
+    return {diachron::PointMatch{a.keypoints[0].position, b.keypoints[0].position, 1.0}};
+  }
+  std::vector<diachron::PointMatch> match(const diachron::Raster<std::uint8_t>& a,
+                                          const diachron::Raster<std::uint8_t>& b) const {
+    return match(ex.extract(a), ex.extract(b));
+  }
+};
+
+}  // namespace
+
+TEST_CASE("FeatureCacheMatcher: passes masks to a masked extractor and keys the cache on them", "[tiling]") {
+  using Cache = diachron::FeatureCacheMatcher<MaskedPeakMatcher>;
+  STATIC_REQUIRE(diachron::is_masked_pair_matcher_v<Cache>);
+  STATIC_REQUIRE_FALSE(diachron::is_masked_pair_matcher_v<diachron::FeatureCacheMatcher<PeakMatcher>>);
+  // The wrapper keeps a reference: a temporary matcher does not compile.
+  STATIC_REQUIRE(std::is_constructible_v<Cache, const MaskedPeakMatcher&>);
+  STATIC_REQUIRE_FALSE(std::is_constructible_v<Cache, MaskedPeakMatcher>);
+  STATIC_REQUIRE_FALSE(std::is_constructible_v<Cache, MaskedPeakMatcher&&>);
+
+  diachron::Raster<std::uint8_t> image(10, 10, 0);
+  image(2, 3) = 200;  // the peak
+  image(7, 7) = 100;  // the peak once (2, 3) is masked
+  diachron::Raster<std::uint8_t> all(10, 10, 255), masked(10, 10, 255);
+  masked(2, 3) = 0;
+  const MaskedPeakMatcher plain;
+  const Cache cache(plain);
+  const auto free = cache.match(image, image, all, all);
+  REQUIRE(free.size() == 1);
+  REQUIRE(free[0].a == Eigen::Vector2d(2, 3));
+  const auto under_mask = cache.match(image, image, masked, masked);
+  REQUIRE(under_mask.size() == 1);
+  REQUIRE(under_mask[0].a == Eigen::Vector2d(7, 7));
+  REQUIRE(cache.cached_images() == 2);  // same pixels, two masks
+  cache.match(image, image, masked, all);
+  REQUIRE(cache.cached_images() == 2);
+  REQUIRE(plain.ex.calls->load() == 2);
 }

@@ -1,5 +1,6 @@
 #include <catch2/catch.hpp>
 
+#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -230,4 +231,75 @@ TEST_CASE("match_one_to_many: progress, exceptions and bad input", "[tiling]") {
   REQUIRE_THROWS_AS(diachron::match_one_to_many(master, secondary, tiler, tiler, throwing, o), std::runtime_error);
   REQUIRE_THROWS_AS(diachron::match_one_to_many(Image(), secondary, tiler, tiler, empty_matcher, o),
                     diachron::Error);
+}
+
+TEST_CASE("match_one_to_many: a masked matcher receives each tile's crop of the masks", "[tiling]") {
+  // Masks with a recognisable value per pixel: master mask = 1 + x % 200, secondary = 1 + y % 200,
+  // with a hole (0) in a block of each. The matcher checks every crop pixel against the image.
+  Image master(40, 30, 0), secondary(35, 25, 0);
+  Image master_mask(40, 30), secondary_mask(35, 25);
+  for (int y = 0; y < 30; ++y)
+    for (int x = 0; x < 40; ++x) {
+      master(x, y) = static_cast<std::uint8_t>(x);
+      master_mask(x, y) = (x >= 5 && x < 9 && y < 4) ? 0 : static_cast<std::uint8_t>(1 + x);
+    }
+  for (int y = 0; y < 25; ++y)
+    for (int x = 0; x < 35; ++x) {
+      secondary(x, y) = static_cast<std::uint8_t>(y);
+      secondary_mask(x, y) = (y >= 20) ? 0 : static_cast<std::uint8_t>(1 + y);
+    }
+  // Counted, not asserted, inside the matcher: Catch2 assertions are not thread-safe.
+  std::atomic<int> calls{0}, zero_master{0}, zero_secondary{0}, wrong{0};
+  auto matcher = diachron::make_pair_matcher([&](const Image& a, const Image& b, const Image& ma, const Image& mb) {
+    calls.fetch_add(1);
+    if (ma.width() != a.width() || ma.height() != a.height() || mb.width() != b.width() ||
+        mb.height() != b.height()) {
+      wrong.fetch_add(1);
+      return std::vector<PointMatch>{};
+    }
+    for (int y = 0; y < a.height(); ++y)
+      for (int x = 0; x < a.width(); ++x) {
+        if (ma(x, y) == 0) zero_master.fetch_add(1);
+        else if (ma(x, y) != a(x, y) + 1) wrong.fetch_add(1);  // not the same pixel of the full image
+      }
+    for (int y = 0; y < b.height(); ++y)
+      for (int x = 0; x < b.width(); ++x) {
+        if (mb(x, y) == 0) zero_secondary.fetch_add(1);
+        else if (mb(x, y) != b(x, y) + 1) wrong.fetch_add(1);
+      }
+    return std::vector<PointMatch>{};
+  });
+  const GridTiler mt(GridTilerOptions{16, 12, 2, 1});
+  const GridTiler st(GridTilerOptions{20, 10, 0, 0});
+  for (std::size_t threads : {1u, 2u}) {
+    calls = 0;
+    zero_master = 0;
+    zero_secondary = 0;
+    OneToManyOptions o;
+    o.threads = threads;
+    const auto r = diachron::match_one_to_many(master, master_mask, secondary, secondary_mask, mt, st, matcher, o);
+    REQUIRE(calls.load() == static_cast<int>(r.pair_count));
+    REQUIRE(wrong.load() == 0);
+    REQUIRE(zero_master.load() > 0);
+    REQUIRE(zero_secondary.load() > 0);
+  }
+  // Empty masks mean all valid: the matcher then sees no 0.
+  zero_master = 0;
+  zero_secondary = 0;
+  diachron::match_one_to_many(master, Image(), secondary, Image(), mt, st, matcher);
+  REQUIRE(zero_master.load() == 0);
+  REQUIRE(zero_secondary.load() == 0);
+  // A mask of the wrong size is an error.
+  REQUIRE_THROWS_AS(diachron::match_one_to_many(master, Image(3, 3, 1), secondary, secondary_mask, mt, st, matcher),
+                    diachron::Error);
+}
+
+TEST_CASE("match_one_to_many: an unmasked matcher still runs when masks are given", "[tiling]") {
+  const Scene s = make_scene();
+  const GridTiler mt(GridTilerOptions{22, 19, 2, 3});
+  const GridTiler st(GridTilerOptions{17, 21, 1, 0});
+  const auto plain = diachron::match_one_to_many(s.master, s.secondary, mt, st, PatternMatcher{});
+  const Image mask_m(s.master.width(), s.master.height(), 0), mask_s(s.secondary.width(), s.secondary.height(), 0);
+  const auto with_masks = diachron::match_one_to_many(s.master, mask_m, s.secondary, mask_s, mt, st, PatternMatcher{});
+  REQUIRE(with_masks.matches.size() == plain.matches.size());
 }

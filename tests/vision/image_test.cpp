@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <type_traits>
 
 #include <opencv2/core.hpp>
 
@@ -51,7 +52,8 @@ TEST_CASE("as_mat: views share memory with the raster, both ways", "[vision]") {
 
   const diachron::Raster<std::uint8_t>& cr = r;
   CHECK(diachron::as_mat(cr).data == r.data());
-  CHECK(diachron::as_mat(diachron::Raster<std::uint8_t>()).empty());
+  const diachron::Raster<std::uint8_t> empty;
+  CHECK(diachron::as_mat(empty).empty());
 }
 
 TEST_CASE("to_raster: copies are exact, also from a non-continuous ROI", "[vision]") {
@@ -110,4 +112,21 @@ TEST_CASE("load_gray8 / save_gray8: a PNG round trip is exact; bad files name th
   CHECK_THROWS_WITH(diachron::save_gray8((dir / "x.unknownext").string(), r), Catch::Contains("x.unknownext"));
   CHECK_THROWS_AS(diachron::save_gray8(png, diachron::Raster<std::uint8_t>()), diachron::Error);
   std::filesystem::remove_all(dir);
+}
+
+namespace {
+
+template <class R, class = void>
+struct can_view : std::false_type {};
+template <class R>
+struct can_view<R, std::void_t<decltype(diachron::as_mat(std::declval<R>()))>> : std::true_type {};
+
+}  // namespace
+
+TEST_CASE("as_mat: a temporary raster does not compile (its view would dangle)", "[vision]") {
+  STATIC_REQUIRE(can_view<diachron::Raster<std::uint8_t>&>::value);
+  STATIC_REQUIRE(can_view<const diachron::Raster<float>&>::value);
+  STATIC_REQUIRE_FALSE(can_view<diachron::Raster<std::uint8_t>>::value);
+  STATIC_REQUIRE_FALSE(can_view<diachron::Raster<std::uint8_t>&&>::value);
+  STATIC_REQUIRE_FALSE(can_view<const diachron::Raster<float>&&>::value);
 }

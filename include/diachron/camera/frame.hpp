@@ -11,6 +11,7 @@
 #include <diachron/camera/distortion.hpp>
 #include <diachron/camera/pose.hpp>
 #include <diachron/core/types.hpp>
+#include <diachron/geometry/helmert3.hpp>
 #include <diachron/geometry/ray.hpp>
 
 namespace diachron {
@@ -61,6 +62,9 @@ class Frame {
   Frame transformed(double scale, const Mat3& rotation, const Vec3& translation) const {
     return Frame(camera_, pose_.transformed(scale, rotation, translation));
   }
+
+  /// The same with the similarity as a Helmert3 (e.g. epoch2_from_epoch1 of a co-registration).
+  Frame transformed(const Helmert3& helmert) const { return Frame(camera_, pose_.transformed(helmert)); }
 
  private:
   CameraType camera_;

@@ -7,10 +7,12 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <Eigen/LU>
 #include <Eigen/SVD>
 
 #include <diachron/core/error.hpp>
 #include <diachron/core/types.hpp>
+#include <diachron/geometry/helmert3.hpp>
 
 namespace diachron {
 
@@ -121,6 +123,12 @@ class Pose {
     DIACHRON_CHECK(translation.allFinite(), "similarity translation must be finite");
     const Mat3 r = detail::checked_rotation(rotation, "similarity rotation");
     return Pose(rotation_ * r.transpose(), scale * (r * centre_) + translation);
+  }
+
+  /// The same with the similarity as a Helmert3, e.g. `pose.transformed(report.epoch2_from_epoch1)`
+  /// moves an epoch-1 pose into epoch 2.
+  Pose transformed(const Helmert3& helmert) const {
+    return transformed(helmert.scale, helmert.rotation, helmert.translation);
   }
 
  private:

@@ -7,10 +7,13 @@
 /// Generic in the PairMatcher; every stage is a component of its own (terrain/dsm_image.hpp,
 /// tiling/one_to_many.hpp, matching/rotation_hypotheses.hpp, robust/), so users can recompose it.
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <cstdio>
+#include <limits>
 #include <string>
 #include <type_traits>
 #include <utility>
@@ -81,6 +84,11 @@ struct RoughCoregistrationOptions {
   /// RANSAC: the edge between data and fill is the strongest structure in a DSM image with holes,
   /// and it is not terrain. 0 keeps them all.
   double min_hole_distance_px = 6.0;
+  /// Give a masked matcher (tiling/pair_matcher.hpp) each image's validity mask: pixels whose DSM
+  /// cell is valid and at least `min_hole_distance_px` from a hole, inside the DSM, and nonzero in
+  /// GeoImage::mask. A slope image writes holes as 0, like flat ground: without the mask a detector
+  /// puts its strongest features on hole rims. Matchers without the masked overload are unaffected.
+  bool pass_masks = true;
 
   /// One-to-many tiling (every master tile with every secondary tile). Off matches whole images.
   bool use_tiling = true;
@@ -120,6 +128,20 @@ struct RoughCoregistrationOptions {
   /// Fewest 3D inliers (lifted 2D inliers that agree with the Helmert) for success.
   std::size_t min_inliers_3d = 6;
 
+  /// Trust of a success (RoughCoregistrationReport::trust): `kHigh` needs the RMS 3D residual of
+  /// the 3D inliers at or below this many secondary DSM cells and at least `trusted_min_inliers_3d`
+  /// 3D inliers; other successes are `kLow`. The significance test only says the 2D inliers are
+  /// not chance; this says whether they agree in 3D as closely as correct matches do. Defaults by
+  /// measurement (docs/rough-coregistration.md, "How far a success can be trusted"): every wrong
+  /// success of the stretch and Wallis images was graded low, no default-configuration success was.
+  double trusted_rms_3d_cells = 2.0;
+  std::size_t trusted_min_inliers_3d = 12;
+  /// A success whose RMS 3D residual exceeds this many secondary cells becomes a failure; the
+  /// rejected Helmert stays in the report for inspection. Infinity (default) keeps them all, graded
+  /// `kLow`; 2.5 would have rejected every wrong success measured and 9 of the 25 right successes of
+  /// the stretch and Wallis images (those 1.2 to 1.9 cells off).
+  double max_rms_3d_cells = std::numeric_limits<double>::infinity();
+
   /// Worker threads over tile pairs (0 = all cores). Results do not depend on it.
   std::size_t threads = 0;
   /// Progress over tile pairs, per rotation hypothesis. May be empty.
@@ -132,6 +154,10 @@ struct RoughCoregistrationOptions {
                    "ransac_3d_threshold_cells must be positive, got " << ransac_3d_threshold_cells);
     DIACHRON_CHECK(alpha > 0.0 && alpha < 1.0, "alpha must be in (0, 1), got " << alpha);
     DIACHRON_CHECK(min_inliers_3d >= 3, "min_inliers_3d must be >= 3");
+    DIACHRON_CHECK(trusted_rms_3d_cells > 0.0 && !std::isnan(trusted_rms_3d_cells),
+                   "trusted_rms_3d_cells must be positive, got " << trusted_rms_3d_cells);
+    DIACHRON_CHECK(max_rms_3d_cells > 0.0 && !std::isnan(max_rms_3d_cells),
+                   "max_rms_3d_cells must be positive, got " << max_rms_3d_cells);
   }
 };
 
@@ -141,6 +167,9 @@ struct RoughCoregistrationOptions {
 struct GeoImage {
   Raster<std::uint8_t> image;
   GeoTransform transform;
+  /// Optional, the image's size: nonzero where the image shows valid data (e.g. an orthophoto's
+  /// footprint). Empty: every pixel; the pipeline also masks where the DSM has no valid height.
+  Raster<std::uint8_t> mask{};
 };
 
 /// Wall-clock seconds per stage.
@@ -153,9 +182,28 @@ struct RoughCoregistrationTimings {
   double total = 0.0;
 };
 
+/// How far a rough co-registration result can be trusted.
+enum class RoughCoregistrationTrust {
+  kNone,  ///< no result (success == false)
+  kLow,   ///< significant in 2D, but the 3D inliers are few or disagree by more than correct matches do
+  kHigh,  ///< enough 3D inliers agreeing within RoughCoregistrationOptions::trusted_rms_3d_cells
+};
+
+/// none, low, high.
+inline const char* to_string(RoughCoregistrationTrust trust) {
+  switch (trust) {
+    case RoughCoregistrationTrust::kNone: return "none";
+    case RoughCoregistrationTrust::kLow: return "low";
+    case RoughCoregistrationTrust::kHigh: return "high";
+  }
+  return "?";
+}
+
 /// What rough_coregistration() found. Defaults mean failure.
 struct RoughCoregistrationReport {
   bool success = false;
+  /// How far a success can be trusted (see RoughCoregistrationTrust and the options' trusted_*).
+  RoughCoregistrationTrust trust = RoughCoregistrationTrust::kNone;
   std::string message = "not run";  ///< why it failed, or a one-line summary on success
 
   /// The result: X2 = scale R X1 + T maps epoch 1 (master) into epoch 2 (secondary, reference).
@@ -176,6 +224,7 @@ struct RoughCoregistrationReport {
   std::vector<PointPair3> lifted;      ///< inliers lifted to 3D (both DSM heights valid)
   std::vector<std::size_t> inliers_3d; ///< indices into `lifted` that agree with the Helmert
   double rms_3d = 0.0;                 ///< RMS 3D residual of those, secondary units
+  double rms_3d_cells = 0.0;           ///< rms_3d in secondary DSM cells (min_cell_size)
 
   RoughCoregistrationTimings seconds;
 };
@@ -218,6 +267,13 @@ inline double seconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
+// Two decimals: messages quote residuals in cells, where more digits are noise.
+inline std::string format_cells(double cells) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.2f", cells);
+  return text;
+}
+
 /// The 3D point of image pixel `px`: its ground X/Y through the image's geotransform and the DSM
 /// height there; NaN height when the DSM has none.
 inline Eigen::Vector3d lift_pixel(const GeoImage& image, const Dsm& dsm, const Eigen::Vector2d& px) {
@@ -255,6 +311,45 @@ inline Raster<float> distance_to_holes(const Dsm& dsm) {
   return d;
 }
 
+/// The mask a masked matcher gets for `image`: 255 where the pixel's DSM cell exists, is valid and
+/// lies at least `min_distance` DSM pixels from a hole (the hole-border margin), and the image's own
+/// mask (if any) is nonzero; 0 elsewhere.
+inline Raster<std::uint8_t> matching_mask(const GeoImage& image, const Dsm& dsm, const Raster<float>& distance,
+                                          double min_distance) {
+  const int w = image.image.width(), h = image.image.height();
+  const bool own = !image.mask.empty();
+  DIACHRON_CHECK(!own || (image.mask.width() == w && image.mask.height() == h),
+                 "GeoImage::mask is " << image.mask.width() << " x " << image.mask.height() << ", its image " << w
+                                      << " x " << h);
+  const double needed = std::max(min_distance, 1.0);  // distance 0 is the hole itself
+  Raster<std::uint8_t> mask(w, h, 0);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      if (own && image.mask(x, y) == 0) continue;
+      const Eigen::Vector2d p = dsm.world_to_pixel(image.transform.pixel_to_world(Eigen::Vector2d(x, y)));
+      const long u = std::lround(p.x()), v = std::lround(p.y());
+      if (u < 0 || v < 0 || u >= distance.width() || v >= distance.height()) continue;
+      if (distance(static_cast<int>(u), static_cast<int>(v)) >= needed) mask(x, y) = 255;
+    }
+  return mask;
+}
+
+// How the pipeline calls matcher M: through the feature cache (`cache`) or directly, and whether
+// with masks (`masks`). The cache is used for FeaturePairMatchers, except when only the matcher,
+// not its extractor, takes masks: the cache would drop them. A specialisation, so
+// FeatureCacheMatcher<M> is only named for the matchers it accepts.
+template <class M, bool = is_feature_pair_matcher_v<M>>
+struct pipeline_matcher {
+  static constexpr bool cache = false;
+  static constexpr bool masks = is_masked_pair_matcher_v<M>;
+};
+template <class M>
+struct pipeline_matcher<M, true> {
+  static constexpr bool cache_masked = is_masked_pair_matcher_v<FeatureCacheMatcher<M>>;
+  static constexpr bool cache = cache_masked || !is_masked_pair_matcher_v<M>;
+  static constexpr bool masks = cache_masked || is_masked_pair_matcher_v<M>;
+};
+
 /// True when image pixel `px` lies at least `min_distance` DSM pixels away from any hole of `dsm`.
 inline bool away_from_holes(const GeoImage& image, const Dsm& dsm, const Raster<float>& distance,
                             const Eigen::Vector2d& px, double min_distance) {
@@ -288,23 +383,34 @@ RoughCoregistrationReport rough_coregistration_images(const GeoImage& master, co
   // One extraction per distinct tile instead of one per tile pair (M + N instead of 2 M N), and the
   // master's tiles, which no hypothesis rotates, only once for all hypotheses.
   [[maybe_unused]] const auto cached_matcher = [&] {
-    if constexpr (is_feature_pair_matcher_v<Matcher>)
+    if constexpr (detail::pipeline_matcher<Matcher>::cache)
       return FeatureCacheMatcher<Matcher>(matcher);
     else
       return 0;
   }();
   const Raster<float> master_holes = detail::distance_to_holes(master_dsm);
   const Raster<float> secondary_holes = detail::distance_to_holes(secondary_dsm);
+  // Masks only for matchers that take them (see detail::pipeline_matcher).
+  const bool use_masks = detail::pipeline_matcher<Matcher>::masks && options.pass_masks;
+  const Raster<std::uint8_t> master_mask =
+      use_masks ? detail::matching_mask(master, master_dsm, master_holes, options.min_hole_distance_px)
+                : Raster<std::uint8_t>();
+  const Raster<std::uint8_t> secondary_mask =
+      use_masks ? detail::matching_mask(secondary, secondary_dsm, secondary_holes, options.min_hole_distance_px)
+                : Raster<std::uint8_t>();
   auto match_fn = [&](const Raster<std::uint8_t>& m, const Raster<std::uint8_t>& s, int rotation_deg) {
     OneToManyOptions one_to_many;
     one_to_many.threads = options.threads;
     one_to_many.progress = options.progress;
     one_to_many.progress_stage = "tile pairs (rotation " + std::to_string(rotation_deg) + ")";
+    // The hypothesis turned the secondary image; its mask turns with it.
+    const Raster<std::uint8_t> s_mask =
+        use_masks ? rotate_quarter_turns(secondary_mask, rotation_deg / 90) : Raster<std::uint8_t>();
     OneToManyResult r;
-    if constexpr (is_feature_pair_matcher_v<Matcher>) {
-      r = match_one_to_many(m, s, master_tiler, secondary_tiler, cached_matcher, one_to_many);
+    if constexpr (detail::pipeline_matcher<Matcher>::cache) {
+      r = match_one_to_many(m, master_mask, s, s_mask, master_tiler, secondary_tiler, cached_matcher, one_to_many);
     } else {
-      r = match_one_to_many(m, s, master_tiler, secondary_tiler, matcher, one_to_many);
+      r = match_one_to_many(m, master_mask, s, s_mask, master_tiler, secondary_tiler, matcher, one_to_many);
     }
     report.tile_pairs = r.pair_count;
     if (options.min_hole_distance_px <= 0.0) return std::move(r.matches);
@@ -416,11 +522,24 @@ RoughCoregistrationReport rough_coregistration_images(const GeoImage& master, co
   report.epoch2_from_epoch1 = best;
   report.inliers_3d = std::move(inliers);
   report.rms_3d = std::sqrt(sum2 / static_cast<double>(report.inliers_3d.size()));
+  report.rms_3d_cells = report.rms_3d / secondary_dsm.min_cell_size();
+  const std::string summary = "rotation " + std::to_string(report.best_rotation_deg) + " deg: " +
+                              std::to_string(report.inliers_2d.size()) + " of " +
+                              std::to_string(report.matches_2d) + " matches are 2D inliers, " +
+                              std::to_string(report.inliers_3d.size()) + " of " +
+                              std::to_string(report.lifted.size()) + " agree in 3D, RMS " +
+                              detail::format_cells(report.rms_3d_cells) + " cells";
+  if (report.rms_3d_cells > options.max_rms_3d_cells) {
+    report.message = summary + ": more than max_rms_3d_cells (" + detail::format_cells(options.max_rms_3d_cells) +
+                     "), so the matches do not agree in 3D as correct matches do";
+    report.seconds.total = detail::seconds_since(start);
+    return report;
+  }
   report.success = true;
-  report.message = "rotation " + std::to_string(report.best_rotation_deg) + " deg: " +
-                   std::to_string(report.inliers_2d.size()) + " of " + std::to_string(report.matches_2d) +
-                   " matches are 2D inliers, " + std::to_string(report.inliers_3d.size()) + " of " +
-                   std::to_string(report.lifted.size()) + " agree in 3D";
+  const bool high = report.rms_3d_cells <= options.trusted_rms_3d_cells &&
+                    report.inliers_3d.size() >= options.trusted_min_inliers_3d;
+  report.trust = high ? RoughCoregistrationTrust::kHigh : RoughCoregistrationTrust::kLow;
+  report.message = summary + ", trust " + to_string(report.trust);
   report.seconds.total = detail::seconds_since(start);
   return report;
 }

@@ -7,6 +7,7 @@
 #include <optional>
 
 #include <Eigen/Core>
+#include <Eigen/LU>  // Matrix2d::determinant()
 
 #include <diachron/core/error.hpp>
 #include <diachron/terrain/transfer.hpp>

@@ -53,6 +53,8 @@ enum class RayDsmOutcome {
                    ///< (origin underground, or entering the DSM from the side below its surface)
   hidden_by_hole,  ///< the ray goes below the surface inside a hole (it is below the surface after
                    ///< the hole, or reaches the lowest DSM height over it): the crossing is in missing data
+  no_ray,          ///< there was no ray to intersect: the pixel is not finite or the frame cannot
+                   ///< unproject it (DsmLift, DsmTransfer); intersect_ray_dsm itself never says this
 };
 
 /// Short text for an outcome (for messages and reports).
@@ -64,6 +66,7 @@ inline const char* to_string(RayDsmOutcome outcome) {
     case RayDsmOutcome::only_holes: return "ray passes over holes only";
     case RayDsmOutcome::below_surface: return "ray starts below the surface";
     case RayDsmOutcome::hidden_by_hole: return "ray crosses the surface inside a hole";
+    case RayDsmOutcome::no_ray: return "pixel cannot be unprojected (no ray)";
   }
   return "unknown";
 }

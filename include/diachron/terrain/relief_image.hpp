@@ -15,6 +15,7 @@
 #include <vector>
 
 #include <Eigen/Core>
+#include <Eigen/LU>  // Matrix2d::inverse()
 
 #include <diachron/core/error.hpp>
 #include <diachron/core/raster.hpp>

@@ -107,6 +107,9 @@ class DsmLift {
       : frame_(std::move(frame)), dsm_(&dsm), options_(options) {
     options_.check();
   }
+  /// The lift keeps a pointer to the DSM: a temporary one (e.g. straight from read_geotiff_dsm)
+  /// would dangle, so it does not compile.
+  DsmLift(Frame frame, const Dsm&& dsm, const RayDsmOptions& options = {}) = delete;
 
   /// The DSM point seen at `px`, or nullopt (no ray, or no first crossing: see RayDsmOutcome).
   std::optional<Eigen::Vector3d> operator()(const Eigen::Vector2d& px) const {
@@ -115,13 +118,15 @@ class DsmLift {
     return r.point;
   }
 
-  /// The full intersection result, with the reason when there is no point (`outside` also when the
-  /// frame gives no ray for the pixel).
+  /// The full intersection result, with the reason when there is no point (`no_ray` when the pixel
+  /// is not finite or the frame gives no usable ray for it).
   RayDsmResult intersect(const Eigen::Vector2d& px) const {
-    if (!px.allFinite()) return {};
+    RayDsmResult none;
+    none.outcome = RayDsmOutcome::no_ray;
+    if (!px.allFinite()) return none;
     const std::optional<Ray3> ray = frame_.ray(px);
     if (!ray || !ray->origin.allFinite() || !ray->direction.allFinite() || ray->direction.squaredNorm() == 0.0)
-      return {};
+      return none;
     return intersect_ray_dsm(*dsm_, *ray, options_);
   }
 
@@ -156,6 +161,9 @@ class DsmTransfer {
       : lift_(std::move(master), master_dsm, options),
         secondary_(std::move(secondary)),
         point_transform_(std::move(point_transform)) {}
+  /// A temporary DSM would dangle (the transfer keeps a pointer to it): does not compile.
+  DsmTransfer(MasterFrame master, const Dsm&& master_dsm, SecondaryFrame secondary,
+              PointTransform point_transform = PointTransform{}, const RayDsmOptions& options = {}) = delete;
 
   /// Secondary pixel of master pixel `master_px`, or nullopt.
   std::optional<Eigen::Vector2d> operator()(const Eigen::Vector2d& master_px) const {
@@ -230,6 +238,12 @@ class MapTransfer {
  private:
   F map_;
 };
+
+/// A temporary DSM would dangle in the returned transfer: does not compile.
+template <class MasterFrame, class SecondaryFrame, class PointTransform = IdentityPointTransform>
+DsmTransfer<MasterFrame, SecondaryFrame, PointTransform> make_dsm_transfer(
+    MasterFrame master, const Dsm&& master_dsm, SecondaryFrame secondary,
+    PointTransform point_transform = PointTransform{}, const RayDsmOptions& options = {}) = delete;
 
 /// Builds a MapTransfer, deducing the map type.
 template <class F>

@@ -84,21 +84,33 @@ struct OneToManyResult {
   std::size_t pair_secondary(std::size_t pair) const { return pair % secondary_tiles.size(); }
 };
 
-/// Matches every tile of `master` (cut by `master_tiler`) against every tile of `secondary` (cut by
-/// `secondary_tiler`) with `matcher`, which sees the buffered rectangles as separate images.
-/// Matches are shifted back to full-image pixels and filtered by the tile cores (see
-/// OneToManyOptions). The work is M x N matcher calls; the tile crops are made once.
-/// Throws diachron::Error for an empty image; rethrows what the matcher throws.
-/// @tparam Matcher a PairMatcher (tiling/pair_matcher.hpp)
+namespace detail {
+
+// Both public overloads; a null mask means "no mask" for that image.
 template <class Matcher>
-OneToManyResult match_one_to_many(const Raster<std::uint8_t>& master, const Raster<std::uint8_t>& secondary,
-                                  const GridTiler& master_tiler, const GridTiler& secondary_tiler,
-                                  const Matcher& matcher, const OneToManyOptions& options = {}) {
+OneToManyResult match_one_to_many_impl(const Raster<std::uint8_t>& master, const Raster<std::uint8_t>* master_mask,
+                                       const Raster<std::uint8_t>& secondary,
+                                       const Raster<std::uint8_t>* secondary_mask, const GridTiler& master_tiler,
+                                       const GridTiler& secondary_tiler, const Matcher& matcher,
+                                       const OneToManyOptions& options) {
   static_assert(check_pair_matcher<Matcher>());
   options.check();
   DIACHRON_CHECK(!master.empty(), "master image is empty (" << master.width() << " x " << master.height() << ")");
   DIACHRON_CHECK(!secondary.empty(),
                  "secondary image is empty (" << secondary.width() << " x " << secondary.height() << ")");
+  auto check_mask = [](const Raster<std::uint8_t>* mask, const Raster<std::uint8_t>& image, const char* which) {
+    DIACHRON_CHECK(!mask || mask->empty() || (mask->width() == image.width() && mask->height() == image.height()),
+                   which << " mask is " << mask->width() << " x " << mask->height() << ", its image "
+                         << image.width() << " x " << image.height());
+  };
+  check_mask(master_mask, master, "master");
+  check_mask(secondary_mask, secondary, "secondary");
+  if (master_mask && master_mask->empty()) master_mask = nullptr;
+  if (secondary_mask && secondary_mask->empty()) secondary_mask = nullptr;
+  // A matcher without the masked overload never sees the masks; one with it gets an all-valid mask
+  // for the image that has none.
+  constexpr bool masked_matcher = is_masked_pair_matcher_v<Matcher>;
+  const bool use_masks = masked_matcher && (master_mask || secondary_mask);
 
   OneToManyResult result;
   result.master_tiles = master_tiler.tiles(master.width(), master.height());
@@ -109,11 +121,18 @@ OneToManyResult match_one_to_many(const Raster<std::uint8_t>& master, const Rast
   result.pair_raw_counts.assign(result.pair_count, 0);
 
   std::vector<Raster<std::uint8_t>> master_crops(nm), secondary_crops(ns);
+  std::vector<Raster<std::uint8_t>> master_mask_crops(use_masks ? nm : 0), secondary_mask_crops(use_masks ? ns : 0);
+  auto crop_mask = [](const Raster<std::uint8_t>* mask, const PixelRect& rect) {
+    return mask ? crop_raster(*mask, rect) : Raster<std::uint8_t>(rect.width, rect.height, 255);
+  };
   parallel_for(nm + ns, options.threads, [&](std::size_t i) {
-    if (i < nm)
+    if (i < nm) {
       master_crops[i] = crop_raster(master, result.master_tiles[i].buffered);
-    else
+      if (use_masks) master_mask_crops[i] = crop_mask(master_mask, result.master_tiles[i].buffered);
+    } else {
       secondary_crops[i - nm] = crop_raster(secondary, result.secondary_tiles[i - nm].buffered);
+      if (use_masks) secondary_mask_crops[i - nm] = crop_mask(secondary_mask, result.secondary_tiles[i - nm].buffered);
+    }
   });
 
   // One slot per pair, concatenated in pair order afterwards: the output cannot depend on which
@@ -123,7 +142,16 @@ OneToManyResult match_one_to_many(const Raster<std::uint8_t>& master, const Rast
   parallel_for(result.pair_count, options.threads, [&](std::size_t pair) {
     const Tile& tm = result.master_tiles[pair / ns];
     const Tile& ts = result.secondary_tiles[pair % ns];
-    std::vector<PointMatch> raw = matcher.match(master_crops[pair / ns], secondary_crops[pair % ns]);
+    std::vector<PointMatch> raw;
+    if constexpr (masked_matcher) {
+      if (use_masks)
+        raw = matcher.match(master_crops[pair / ns], secondary_crops[pair % ns], master_mask_crops[pair / ns],
+                            secondary_mask_crops[pair % ns]);
+      else
+        raw = matcher.match(master_crops[pair / ns], secondary_crops[pair % ns]);
+    } else {
+      raw = matcher.match(master_crops[pair / ns], secondary_crops[pair % ns]);
+    }
     result.pair_raw_counts[pair] = raw.size();
     const Eigen::Vector2d shift_m(tm.buffered.x, tm.buffered.y);
     const Eigen::Vector2d shift_s(ts.buffered.x, ts.buffered.y);
@@ -149,6 +177,34 @@ OneToManyResult match_one_to_many(const Raster<std::uint8_t>& master, const Rast
     result.match_pair.insert(result.match_pair.end(), per_pair[pair].size(), pair);
   }
   return result;
+}
+
+}  // namespace detail
+
+/// Matches every tile of `master` (cut by `master_tiler`) against every tile of `secondary` (cut by
+/// `secondary_tiler`) with `matcher`, which sees the buffered rectangles as separate images.
+/// Matches are shifted back to full-image pixels and filtered by the tile cores (see
+/// OneToManyOptions). The work is M x N matcher calls; the tile crops are made once.
+/// Throws diachron::Error for an empty image; rethrows what the matcher throws.
+/// @tparam Matcher a PairMatcher (tiling/pair_matcher.hpp)
+template <class Matcher>
+OneToManyResult match_one_to_many(const Raster<std::uint8_t>& master, const Raster<std::uint8_t>& secondary,
+                                  const GridTiler& master_tiler, const GridTiler& secondary_tiler,
+                                  const Matcher& matcher, const OneToManyOptions& options = {}) {
+  return detail::match_one_to_many_impl(master, nullptr, secondary, nullptr, master_tiler, secondary_tiler, matcher,
+                                        options);
+}
+
+/// The same with validity masks (the size of their images; nonzero = valid, an empty mask = all
+/// valid). A masked PairMatcher receives the masks' crops with the tiles; another matcher is called
+/// unmasked, as by the overload above.
+template <class Matcher>
+OneToManyResult match_one_to_many(const Raster<std::uint8_t>& master, const Raster<std::uint8_t>& master_mask,
+                                  const Raster<std::uint8_t>& secondary, const Raster<std::uint8_t>& secondary_mask,
+                                  const GridTiler& master_tiler, const GridTiler& secondary_tiler,
+                                  const Matcher& matcher, const OneToManyOptions& options = {}) {
+  return detail::match_one_to_many_impl(master, &master_mask, secondary, &secondary_mask, master_tiler,
+                                        secondary_tiler, matcher, options);
 }
 
 }  // namespace diachron

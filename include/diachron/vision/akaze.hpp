@@ -80,16 +80,26 @@ class AkazeExtractor {
 
   /// Keypoints and descriptors of `image`. An empty raster throws diachron::Error; an image
   /// without texture gives empty Features.
-  Features extract(const Raster<std::uint8_t>& image) const {
+  Features extract(const Raster<std::uint8_t>& image) const { return extract_impl(image, nullptr); }
+
+  /// The same, detecting only where `mask` (the image's size) is nonzero (cv::Feature2D's mask).
+  Features extract(const Raster<std::uint8_t>& image, const Raster<std::uint8_t>& mask) const {
+    detail::check_mask_size(image, mask, "AkazeExtractor");
+    return extract_impl(image, &mask);
+  }
+
+ private:
+  Features extract_impl(const Raster<std::uint8_t>& image, const Raster<std::uint8_t>* mask) const {
     DIACHRON_CHECK(!image.empty(), "AkazeExtractor: the image is empty");
     std::vector<cv::KeyPoint> keypoints;
     cv::Mat desc;
+    const cv::Mat mask_mat = mask ? as_mat(*mask) : cv::Mat();  // empty: OpenCV's "no mask"
     try {
       cv::Ptr<cv::AKAZE> akaze = cv::AKAZE::create(
           options_.upright ? cv::AKAZE::DESCRIPTOR_MLDB_UPRIGHT : cv::AKAZE::DESCRIPTOR_MLDB,
           options_.descriptor_bits, options_.descriptor_channels, static_cast<float>(options_.threshold),
           options_.octaves, options_.octave_layers, options_.diffusivity);
-      akaze->detectAndCompute(as_mat(image), cv::noArray(), keypoints, desc);
+      akaze->detectAndCompute(as_mat(image), mask_mat, keypoints, desc);
     } catch (const cv::Exception& e) {
       DIACHRON_CHECK(false, "AkazeExtractor: OpenCV failed on a " << image.width() << " x " << image.height()
                                                                   << " image: " << e.what());
@@ -107,7 +117,6 @@ class AkazeExtractor {
     return out;
   }
 
- private:
   AkazeOptions options_;
 };
 

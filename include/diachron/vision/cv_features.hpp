@@ -63,17 +63,13 @@ inline DescriptorMatrix float_rows(const cv::Mat& desc, const std::vector<int>& 
   return out;
 }
 
-/// Unpacks the selected rows of a CV_8U binary descriptor Mat, one float (0 or 1) per bit; bit b of
-/// byte j becomes column 8 j + b (the order OpenCV packs MLDB bits in, so repacking is exact).
+/// Unpacks the selected rows of a CV_8U binary descriptor Mat with diachron::unpack_bits (one
+/// float, 0 or 1, per bit; bit b of byte j in column 8 j + b, OpenCV's MLDB order).
 inline DescriptorMatrix unpack_bits(const cv::Mat& desc, const std::vector<int>& rows) {
   DIACHRON_CHECK(desc.type() == CV_8UC1, "expected CV_8UC1 binary descriptors, got " << cv::typeToString(desc.type()));
   DescriptorMatrix out(static_cast<Eigen::Index>(rows.size()), desc.cols * 8);
-  for (std::size_t i = 0; i < rows.size(); ++i) {
-    const std::uint8_t* src = desc.ptr<std::uint8_t>(rows[i]);
-    for (int j = 0; j < desc.cols; ++j)
-      for (int b = 0; b < 8; ++b)
-        out(static_cast<Eigen::Index>(i), 8 * j + b) = static_cast<float>((src[j] >> b) & 1u);
-  }
+  for (std::size_t i = 0; i < rows.size(); ++i)
+    out.row(static_cast<Eigen::Index>(i)) = diachron::unpack_bits(desc.ptr<std::uint8_t>(rows[i]), 1, desc.cols);
   return out;
 }
 
@@ -115,4 +111,16 @@ inline std::vector<int> strongest(const std::vector<cv::KeyPoint>& keypoints, in
 }
 
 }  // namespace detail
+
+/// Every row of a CV_8U binary descriptor Mat (ORB, BRISK, AKAZE) in the library's bit layout
+/// (see diachron::unpack_bits in matching/features.hpp): the Features::descriptors to declare
+/// DescriptorMetric::Hamming with.
+inline DescriptorMatrix unpack_bits(const cv::Mat& desc) {
+  DIACHRON_CHECK(desc.empty() || desc.type() == CV_8UC1,
+                 "expected CV_8UC1 binary descriptors, got " << cv::typeToString(desc.type()));
+  if (desc.empty()) return DescriptorMatrix(0, 0);
+  const cv::Mat packed = desc.isContinuous() ? desc : desc.clone();
+  return unpack_bits(packed.ptr<std::uint8_t>(0), packed.rows, packed.cols);
+}
+
 }  // namespace diachron

@@ -55,8 +55,9 @@ struct FeatureIndexMatch {
 /// Brute-force matching of two descriptor sets with cv::BFMatcher: nearest neighbours A -> B with
 /// the ratio test, then the mutual check. `metric` L2 and Cosine use NORM_L2 (for unit rows the L2
 /// distance is sqrt(2 - 2 cos), so the order is the cosine order); Hamming repacks 0/1 float bits
-/// (AkazeExtractor's layout) and uses NORM_HAMMING. Results are sorted by row of A.
-/// Throws diachron::Error when the descriptor widths differ or rows and keypoints disagree.
+/// (AkazeExtractor's layout, diachron::unpack_bits) and uses NORM_HAMMING. Results are sorted by row
+/// of A. Throws diachron::Error when the descriptor widths differ, rows and keypoints disagree, or
+/// Hamming descriptors hold a value other than 0 and 1 (check_bit_descriptors).
 inline std::vector<FeatureIndexMatch> match_features(const Features& a, const Features& b,
                                                      DescriptorMetric metric,
                                                      const ExtractorMatchOptions& options = {}) {
@@ -72,6 +73,12 @@ inline std::vector<FeatureIndexMatch> match_features(const Features& a, const Fe
                  "descriptor widths differ: " << a.descriptors.cols() << " (A) vs " << b.descriptors.cols() << " (B)");
 
   const bool binary = metric == DescriptorMetric::Hamming;
+  // Packing reads any value > 0.5 as a set bit: bytes stored one per float would pass as 8x fewer,
+  // mostly set bits and match as noise, so the layout is checked instead of trusted.
+  if (binary) {
+    check_bit_descriptors(a.descriptors, "A");
+    check_bit_descriptors(b.descriptors, "B");
+  }
   // Packed copies for Hamming; for L2 the Mats are views of the Eigen rows (no copy).
   const cv::Mat da = binary ? detail::pack_bits(a.descriptors) : detail::float_view(a.descriptors);
   const cv::Mat db = binary ? detail::pack_bits(b.descriptors) : detail::float_view(b.descriptors);
@@ -116,7 +123,10 @@ struct HasExtract<E, std::void_t<decltype(std::declval<const E&>().extract(
 
 /// PairMatcher (DESIGN.md section 3) from a FeatureExtractor: extracts features in both rasters and
 /// matches them with match_features. The metric is `Extractor::descriptor_metric()` when the
-/// extractor has one (SiftExtractor: L2, AkazeExtractor: Hamming), L2 otherwise.
+/// extractor has one (SiftExtractor: L2, AkazeExtractor: Hamming), otherwise L2 on real-valued
+/// rows: the FeatureExtractor concept (tiling/pair_matcher.hpp) documents L2 as the default, and a
+/// binary extractor must say Hamming. With a masked extractor (`extract(image, mask)`) it is a
+/// masked PairMatcher too: no feature where a mask is 0.
 /// `PointMatch::score` is minus the descriptor distance (higher is better).
 ///
 /// Thread safety: `match` is const and keeps no state between calls (the extractors in vision/
@@ -152,6 +162,13 @@ class ExtractorPairMatcher {
   /// Matches of raster `a` (master) against raster `b` (secondary), in each raster's pixels.
   std::vector<PointMatch> match(const Raster<std::uint8_t>& a, const Raster<std::uint8_t>& b) const {
     return match(extractor_.extract(a), extractor_.extract(b));
+  }
+
+  /// Masked matching (only with a masked extractor): features only where the masks are nonzero.
+  template <class E = Extractor, std::enable_if_t<is_masked_feature_extractor_v<E>, int> = 0>
+  std::vector<PointMatch> match(const Raster<std::uint8_t>& a, const Raster<std::uint8_t>& b,
+                                const Raster<std::uint8_t>& mask_a, const Raster<std::uint8_t>& mask_b) const {
+    return match(extractor_.extract(a, mask_a), extractor_.extract(b, mask_b));
   }
 
   /// Matches of already extracted features (useful to reuse one image's features against many).

@@ -79,6 +79,10 @@ cv::Mat as_mat(const Raster<T>& raster) {
                  const_cast<T*>(raster.data()));
 }
 
+/// The view of a temporary raster would dangle as soon as the statement ends: does not compile.
+template <class T>
+cv::Mat as_mat(const Raster<T>&& raster) = delete;
+
 /// Copies a single-channel Mat of exactly T's depth into a new raster (continuous or not, e.g. a
 /// ROI). Throws diachron::Error when the Mat has several channels, another depth, or more than
 /// two dimensions; convert first (cv::cvtColor, Mat::convertTo) when that is what is meant.

@@ -82,15 +82,25 @@ class SiftExtractor {
 
   /// Keypoints and descriptors of `image`. An empty raster throws diachron::Error; an image
   /// without texture gives empty Features.
-  Features extract(const Raster<std::uint8_t>& image) const {
+  Features extract(const Raster<std::uint8_t>& image) const { return extract_impl(image, nullptr); }
+
+  /// The same, detecting only where `mask` (the image's size) is nonzero (cv::Feature2D's mask).
+  Features extract(const Raster<std::uint8_t>& image, const Raster<std::uint8_t>& mask) const {
+    detail::check_mask_size(image, mask, "SiftExtractor");
+    return extract_impl(image, &mask);
+  }
+
+ private:
+  Features extract_impl(const Raster<std::uint8_t>& image, const Raster<std::uint8_t>* mask) const {
     DIACHRON_CHECK(!image.empty(), "SiftExtractor: the image is empty");
     std::vector<cv::KeyPoint> keypoints;
     cv::Mat desc;
+    const cv::Mat mask_mat = mask ? as_mat(*mask) : cv::Mat();  // empty: OpenCV's "no mask"
     try {
       cv::Ptr<cv::SIFT> sift = cv::SIFT::create(options_.max_features, options_.octave_layers,
                                                 options_.contrast_threshold, options_.edge_threshold,
                                                 options_.sigma);
-      sift->detectAndCompute(as_mat(image), cv::noArray(), keypoints, desc);
+      sift->detectAndCompute(as_mat(image), mask_mat, keypoints, desc);
     } catch (const cv::Exception& e) {
       DIACHRON_CHECK(false, "SiftExtractor: OpenCV failed on a " << image.width() << " x " << image.height()
                                                                  << " image: " << e.what());
@@ -108,7 +118,6 @@ class SiftExtractor {
     return out;
   }
 
- private:
   SiftOptions options_;
 };
 

@@ -293,6 +293,16 @@ class XFeatExtractor {
   const std::string& model_path() const { return pool_->path(); }
   static constexpr DescriptorMetric descriptor_metric() { return DescriptorMetric::Cosine; }
 
+  /// The same, keeping only keypoints where `mask` (the image's size) is nonzero. The network has
+  /// no mask input: the top_k keypoints are detected on the whole image and the masked ones
+  /// dropped, so fewer than top_k may remain.
+  Features extract(const Raster<std::uint8_t>& image, const Raster<std::uint8_t>& mask) const {
+    detail::check_mask_size(image, mask, "XFeatExtractor");
+    Features out = extract(image);
+    drop_masked_features(out, mask);
+    return out;
+  }
+
   /// Keypoints (tile pixels, scale 0, no angle, response = score) and unit 64-float descriptors,
   /// best score first. An empty raster throws diachron::Error.
   Features extract(const Raster<std::uint8_t>& image) const {
@@ -497,6 +507,12 @@ class XFeatPairMatcher {
   /// Matches of raster `a` (master) against raster `b` (secondary), in each raster's pixels.
   std::vector<PointMatch> match(const Raster<std::uint8_t>& a, const Raster<std::uint8_t>& b) const {
     return match(extractor_.extract(a), extractor_.extract(b));
+  }
+
+  /// The same, with features only where the masks (each its image's size) are nonzero.
+  std::vector<PointMatch> match(const Raster<std::uint8_t>& a, const Raster<std::uint8_t>& b,
+                                const Raster<std::uint8_t>& mask_a, const Raster<std::uint8_t>& mask_b) const {
+    return match(extractor_.extract(a, mask_a), extractor_.extract(b, mask_b));
   }
 
   /// Matches of already extracted XFeat features.
