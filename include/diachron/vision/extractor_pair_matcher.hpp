@@ -114,7 +114,7 @@ struct HasExtract<E, std::void_t<decltype(std::declval<const E&>().extract(
 
 }  // namespace detail
 
-/// PairMatcher (DESIGN.md section 3) from a FeatureExtractor: extracts features in both rasters and
+/// PairMatcher (docs/architecture.md) from a FeatureExtractor: extracts features in both rasters and
 /// matches them with match_features. The metric is `Extractor::descriptor_metric()` when the
 /// extractor has one (SiftExtractor: L2, AkazeExtractor: Hamming), L2 otherwise.
 /// `PointMatch::score` is minus the descriptor distance (higher is better).
