@@ -36,7 +36,11 @@ const char* kUsage =
     "  --model PATH                          XFeat ONNX file (with --matcher xfeat)\n"
     "  --image relief|slope|stretch|wallis|hillshade|multihillshade   DSM image (default slope)\n"
     "  --k-sigma K                           stretch range for stretch/wallis (default 2, the paper)\n"
-    "  --tile WxH                            tile size in DSM pixels (default 640x480)\n"
+    "  --tile WxH                            tile size in DSM pixels, buffers included\n"
+    "                                        (default 1920x1440, MicMac's; the paper's was 640x480)\n"
+    "  --buffer BXxBY                        margin around each tile core, DSM pixels (default 0x0)\n"
+    "                                        (tiles overlap by 2 * buffer; a match is kept in its\n"
+    "                                        master tile's core only)\n"
     "  --no-tiling                           match the whole DSM images\n"
     "  --no-rotations                        try 0 degrees only\n"
     "  --threshold PX                        2D RANSAC threshold, DSM pixels (default 10)\n"
@@ -111,6 +115,12 @@ int main(int argc, char** argv) {
         DIACHRON_CHECK(x != std::string::npos, "--tile wants WxH, got '" << t << "'");
         options.master_tiles.tile_width = options.secondary_tiles.tile_width = std::stoi(t.substr(0, x));
         options.master_tiles.tile_height = options.secondary_tiles.tile_height = std::stoi(t.substr(x + 1));
+      } else if (a == "--buffer") {
+        const std::string b = value();
+        const auto x = b.find('x');
+        DIACHRON_CHECK(x != std::string::npos, "--buffer wants BXxBY, got '" << b << "'");
+        options.master_tiles.buffer_x = options.secondary_tiles.buffer_x = std::stoi(b.substr(0, x));
+        options.master_tiles.buffer_y = options.secondary_tiles.buffer_y = std::stoi(b.substr(x + 1));
       } else if (a == "--no-tiling") options.use_tiling = false;
       else if (a == "--no-rotations") options.rotation_hypotheses = false;
       else if (a == "--threshold") options.ransac_2d.threshold = std::stod(value());
@@ -128,6 +138,10 @@ int main(int argc, char** argv) {
     DIACHRON_CHECK(!master_path.empty() && !secondary_path.empty() && !out_dir.empty(),
                    "two DSM files and --out DIR are required");
     options.check();
+    if (options.use_tiling) {
+      options.master_tiles.check();
+      options.secondary_tiles.check();
+    }
     if (!quiet)
       options.progress = [](const ProgressEvent& e) {
         std::fprintf(stderr, "\r%s: %zu/%zu ", e.stage.c_str(), e.done, e.total);

@@ -113,7 +113,7 @@ TEMPLATE_TEST_CASE("Camera: undistort inverts distort in normalised coordinates"
   }
 }
 
-TEST_CASE("Camera<Fraser>: the formulas of DESIGN.md section 5, checked by hand", "[camera]") {
+TEST_CASE("Camera<Fraser>: the formulas of docs/conventions.md, checked by hand", "[camera]") {
   const Camera<FraserAffine> camera(1000.0, 500.0, 400.0, 1000, 800,
                                     {0.1, 0.01, 0.001, 0.002, -0.003, 2.0, -1.0});
   const double x = 0.3;

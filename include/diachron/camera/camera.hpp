@@ -3,7 +3,7 @@
 /// Camera<Distortion>: the interior orientation of a frame camera (focal length, principal point,
 /// image size, distortion) with projection usable by Ceres autodiff and an iterative unprojection.
 ///
-/// Conventions (DESIGN.md section 5): pixel (0, 0) is the centre of the top-left pixel, x right,
+/// Conventions (docs/conventions.md): pixel (0, 0) is the centre of the top-left pixel, x right,
 /// y down; the camera frame has x right, y down, z forward; a camera-frame point X projects through
 /// normalised coordinates (x, y) = (X/Z, Y/Z), the distortion policy gives (x', y') and
 ///   (u - cx, v - cy) = (f I + A) (x', y'),

@@ -1,7 +1,7 @@
 #pragma once
 /// @file
 /// Lens distortion policies for Camera<Distortion>: NoDistortion, RadialK3, Fraser and FraserAffine
-/// (DESIGN.md section 5), the Distortion concept they model, and the iterative undistortion.
+/// (docs/conventions.md), the Distortion concept they model, and the iterative undistortion.
 ///
 /// Requirements for Distortion (a pseudo-class; every member static, so a policy carries no state
 /// and the same code serves double, float and ceres::Jet):
@@ -229,8 +229,8 @@ struct RadialK3 {
   }
 };
 
-/// Fraser (1997) radial + decentring distortion in the Australis / Metashape form (DESIGN.md
-/// section 5), all coefficients dimensionless. Parameters [K1, K2, K3, P1, P2]:
+/// Fraser (1997) radial + decentring distortion in the Australis / Metashape form
+/// (docs/conventions.md), all coefficients dimensionless. Parameters [K1, K2, K3, P1, P2]:
 ///   x' = x (1 + K1 r^2 + K2 r^4 + K3 r^6) + P1 (r^2 + 2 x^2) + 2 P2 x y
 ///   y' = y (1 + K1 r^2 + K2 r^4 + K3 r^6) + P2 (r^2 + 2 y^2) + 2 P1 x y
 struct Fraser {

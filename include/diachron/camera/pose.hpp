@@ -35,7 +35,7 @@ inline Mat3 checked_rotation(const Mat3& r, const char* what) {
 
 /// Exterior orientation: the rotation R = cam_from_world (world -> camera frame, proper, 3x3) and
 /// the projection centre C (world units, metres for aerial work), X_cam = R (X_world - C).
-/// Camera frame: x right, y down, z forward (DESIGN.md section 5). A value type; thread-safe.
+/// Camera frame: x right, y down, z forward (docs/conventions.md). A value type; thread-safe.
 class Pose {
  public:
   /// Identity rotation at the origin.

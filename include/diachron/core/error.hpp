@@ -2,7 +2,7 @@
 /// @file
 /// The one error type of the library and the check macro that raises it.
 ///
-/// Two channels (DESIGN.md section 5): invalid input at an API boundary throws `diachron::Error`;
+/// Two channels (docs/conventions.md): invalid input at an API boundary throws `diachron::Error`;
 /// "no answer exists" is reported in a result (`success == false`, `std::nullopt`), never thrown.
 
 #include <sstream>

@@ -14,7 +14,7 @@ namespace diachron {
 /// GDAL's geotransform: for the pixel *corner* (col, row) (GDAL convention: (0, 0) is the top-left
 /// corner of the top-left pixel),
 ///   X = c[0] + col * c[1] + row * c[2],   Y = c[3] + col * c[4] + row * c[5].
-/// diachron's pixel convention puts (0, 0) at the *centre* of the top-left pixel (DESIGN.md section 5),
+/// diachron's pixel convention puts (0, 0) at the *centre* of the top-left pixel (docs/conventions.md),
 /// so pixel_to_world / world_to_pixel add and remove the half-pixel: pixel (0, 0) maps to the
 /// centre of the first cell. For a north-up raster c[2] = c[4] = 0 and c[5] < 0.
 struct GeoTransform {

@@ -2,7 +2,7 @@
 /// @file
 /// Deterministic random streams. Every randomised algorithm derives its stream from the user's
 /// seed and an item index (a RANSAC iteration, a tile, an epoch), never from a thread, so results
-/// do not depend on the thread count (DESIGN.md section 5).
+/// do not depend on the thread count (docs/conventions.md).
 
 #include <cmath>
 #include <cstddef>

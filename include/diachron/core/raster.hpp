@@ -10,7 +10,7 @@
 namespace diachron {
 
 /// A width x height grid, row-major, element (x, y) at data()[y * width + x].
-/// x is the column (to the right), y the row (down), as pixel coordinates (DESIGN.md section 5).
+/// x is the column (to the right), y the row (down), as pixel coordinates (docs/conventions.md).
 /// Single-channel: multi-channel images are several rasters or a Raster of a small struct.
 template <class T>
 class Raster {

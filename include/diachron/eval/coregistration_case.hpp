@@ -5,7 +5,7 @@
 /// of an estimated Helmert measured over their overlap.
 ///
 /// Real archives give DSMs in unrelated frames; georeferenced DEMs do not. This turns one or two
-/// georeferenced DEMs of the same place into a case whose answer is known (DESIGN.md section 6).
+/// georeferenced DEMs of the same place into a case whose answer is known (docs/architecture.md).
 
 #include <algorithm>
 #include <cmath>

@@ -16,7 +16,7 @@ namespace diachron {
 /// - `rotation`: a proper rotation (orthonormal, det +1), 3x3; not re-orthonormalised here.
 /// - `translation`: in the target (epoch 2) frame's units, usually metres.
 ///
-/// By convention (DESIGN.md section 5) a Helmert maps epoch 1 into epoch 2; name instances
+/// By convention (docs/conventions.md) a Helmert maps epoch 1 into epoch 2; name instances
 /// `epoch2_from_epoch1`. An aggregate:
 /// @code
 /// const Helmert3 epoch2_from_epoch1 =

@@ -22,7 +22,7 @@ namespace diachron {
 /// A 2D homography `[x_t, y_t, 1]^T ~ matrix * [x_s, y_s, 1]^T` (equality up to scale).
 ///
 /// `matrix` is defined up to scale; estimate_homography() returns it with unit Frobenius norm.
-/// Applying it is a Transfer (DESIGN.md section 3): `std::optional<Vec2> operator()(const Vec2&)`,
+/// Applying it is a Transfer (docs/architecture.md): `std::optional<Vec2> operator()(const Vec2&)`,
 /// empty where the point maps to (or near) the line at infinity. Name instances
 /// `<to>_from_<from>`, e.g. `secondary_from_master`.
 struct Homography2 {

@@ -9,6 +9,7 @@
 #include <optional>
 
 #include <Eigen/Core>
+#include <Eigen/LU>  // determinant()
 #include <Eigen/SVD>
 
 #include <diachron/core/error.hpp>
@@ -136,7 +137,10 @@ std::optional<SimilarityFit<D>> fit_similarity(const Pairs& pairs, const double*
     total_weight += w;
     source_sum += w * s;
     target_sum += w * t;
-    cross.noalias() += (w * t) * s.transpose();
+    for (int r = 0; r < D; ++r) {  // cross += w t s^T, without an outer-product expression
+      const double wt = w * t(r);
+      for (int c = 0; c < D; ++c) cross(r, c) += wt * s(c);
+    }
     source_squares += w * s.squaredNorm();
     target_squares += w * t.squaredNorm();
   };
@@ -155,7 +159,10 @@ std::optional<SimilarityFit<D>> fit_similarity(const Pairs& pairs, const double*
   }
   const VecD source_mean = source_sum / total_weight;
   const VecD target_mean = target_sum / total_weight;
-  const MatD sigma = cross / total_weight - target_mean * source_mean.transpose();
+  MatD sigma;
+  for (int r = 0; r < D; ++r) {
+    for (int c = 0; c < D; ++c) sigma(r, c) = cross(r, c) / total_weight - target_mean(r) * source_mean(c);
+  }
   const double source_var = source_squares / total_weight - source_mean.squaredNorm();
   const double target_var = target_squares / total_weight - target_mean.squaredNorm();
   // A variance within rounding of the raw second moment is zero: all points coincide.
@@ -182,10 +189,12 @@ std::optional<SimilarityFit<D>> fit_similarity(const Pairs& pairs, const double*
     if (!(singular(0) > 0.0) || !(singular(1) > kProcrustesRankTolerance * singular(0))) {
       return std::nullopt;
     }
-    VecD signs = VecD::Ones();
-    if (svd.matrixU().determinant() * svd.matrixV().determinant() < 0.0) signs(D - 1) = -1.0;
-    fit.rotation = svd.matrixU() * signs.asDiagonal() * svd.matrixV().transpose();
-    correlation = singular.dot(signs);
+    // R = U diag(1, 1, sign) V^T, sign = -1 when U V^T would be a reflection.
+    MatD u = svd.matrixU();
+    const double sign = u.determinant() * svd.matrixV().determinant() < 0.0 ? -1.0 : 1.0;
+    u.col(D - 1) *= sign;
+    fit.rotation.noalias() = u * svd.matrixV().transpose();
+    correlation = singular(0) + singular(1) + sign * singular(2);
   }
 
   if (!options.estimate_scale) {

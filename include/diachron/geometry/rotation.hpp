@@ -39,18 +39,22 @@ Eigen::Matrix<T, 3, 3> rotation_from_axis_angle(const Eigen::Matrix<T, 3, 1>& ax
   using std::cos;
   using std::sin;
   using std::sqrt;
-  const T theta2 = axis_angle.squaredNorm();
-  Eigen::Matrix<T, 3, 3> cross;
-  cross << T(0), -axis_angle(2), axis_angle(1),  //
-      axis_angle(2), T(0), -axis_angle(0),       //
-      -axis_angle(1), axis_angle(0), T(0);
+  // R = I + a K + b K^2 with K the cross-product matrix of v = axis_angle, written out with
+  // K^2 = v v^T - theta^2 I: element by element, no matrix product to instantiate.
+  const T x = axis_angle(0), y = axis_angle(1), z = axis_angle(2);
+  const T theta2 = x * x + y * y + z * z;
+  T a(1), b(0);  // first-order form below 1e-8 rad
   if (theta2 > T(1e-16)) {
     const T theta = sqrt(theta2);
-    const T a = sin(theta) / theta;
-    const T b = (T(1) - cos(theta)) / theta2;
-    return Eigen::Matrix<T, 3, 3>::Identity() + a * cross + b * (cross * cross);
+    a = sin(theta) / theta;
+    b = (T(1) - cos(theta)) / theta2;
   }
-  return Eigen::Matrix<T, 3, 3>::Identity() + cross;
+  const T diagonal = T(1) - b * theta2;
+  Eigen::Matrix<T, 3, 3> r;
+  r << diagonal + b * x * x, b * x * y - a * z, b * x * z + a * y,  //
+      b * x * y + a * z, diagonal + b * y * y, b * y * z - a * x,   //
+      b * x * z - a * y, b * y * z + a * x, diagonal + b * z * z;
+  return r;
 }
 
 /// R = Rz(yaw) * Ry(pitch) * Rx(roll), angles in radians, each a right-hand rotation about the
@@ -92,8 +96,13 @@ inline double rotation_distance(const Eigen::Matrix3d& a, const Eigen::Matrix3d&
 /// Axis-angle vector (axis times angle in radians, angle in [0, pi]) of a rotation matrix.
 /// Goes through a quaternion, which is well conditioned also at 180 degrees.
 inline Eigen::Vector3d axis_angle_from_rotation(const Eigen::Matrix3d& r) {
-  const Eigen::AngleAxisd aa{Eigen::Quaterniond(r).normalized()};
-  return aa.axis() * aa.angle();
+  // Eigen::AngleAxisd(quaternion) in closed form (it would instantiate stableNorm for 3 numbers).
+  const Eigen::Quaterniond q = Eigen::Quaterniond(r).normalized();
+  const double half_sine = std::hypot(q.x(), q.y(), q.z());  // sin(angle / 2)
+  if (!(half_sine > 0.0)) return Eigen::Vector3d::Zero();
+  // q and -q are the same rotation; the one with w >= 0 has its angle in [0, pi].
+  const double angle = 2.0 * std::atan2(half_sine, std::abs(q.w()));
+  return (q.w() < 0.0 ? -angle : angle) / half_sine * q.vec();
 }
 
 /// A rotation drawn uniformly from SO(3) (Haar measure): a normalised 4D Gaussian quaternion.

@@ -160,7 +160,7 @@ inline void write_colmap_text(const ColmapModel& model, const std::string& direc
 /// The diachron camera of a COLMAP camera: SIMPLE_PINHOLE, PINHOLE, SIMPLE_RADIAL, RADIAL, OPENCV
 /// exactly; FULL_OPENCV exactly when k4 = k5 = k6 = 0, fitted otherwise (see
 /// camera_from_colmap(const ColmapFullOpenCv&)). Principal point - 0.5 px; fx != fy becomes
-/// B1 = fx - fy with f = fy; OpenCV's (p1, p2) become Fraser's (P2, P1) (DESIGN.md section 5).
+/// B1 = fx - fy with f = fy; OpenCV's (p1, p2) become Fraser's (P2, P1) (docs/conventions.md).
 /// Throws diachron::Error for another model or invalid params.
 inline ConversionResult<Camera<FraserAffine>> camera_from_colmap(const ColmapCamera& colmap,
                                                                  const ConversionOptions& options = {});

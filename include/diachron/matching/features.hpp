@@ -16,7 +16,7 @@
 
 namespace diachron {
 
-/// A detected keypoint. `position` in pixels (DESIGN.md convention); `scale` in pixels (the
+/// A detected keypoint. `position` in pixels (docs/conventions.md); `scale` in pixels (the
 /// detector's characteristic size, e.g. OpenCV's KeyPoint::size; 0 when the detector has none);
 /// `angle` in radians, measured from the +x axis towards +y (clockwise as seen on screen, since y
 /// points down), in [0, 2 pi); negative when the detector gives no orientation. `response` is the

@@ -10,7 +10,7 @@
 namespace diachron {
 
 /// A correspondence between pixel `a` of image A (the master) and pixel `b` of image B (the
-/// secondary), in each image's pixel convention (DESIGN.md section 5). `score` is the matcher's
+/// secondary), in each image's pixel convention (docs/conventions.md). `score` is the matcher's
 /// confidence, higher is better (e.g. cosine similarity, or minus a descriptor distance); matchers
 /// that have none leave it at 0.
 struct PointMatch {

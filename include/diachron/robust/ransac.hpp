@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// diachron::Ransac: random sample consensus assembled from five policies (DESIGN.md section 3).
+/// diachron::Ransac: random sample consensus assembled from five policies (docs/concepts.md).
 ///
 /// Policies and where their requirements are written:
 /// - Estimator          robust/estimator.hpp               (the model: minimal solver, residual, ...)

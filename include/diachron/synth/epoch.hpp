@@ -120,7 +120,7 @@ struct EpochOptions {
   /// Principal point offset from the image centre ((w - 1) / 2, (h - 1) / 2), pixels.
   Eigen::Vector2d principal_point_offset_px = Eigen::Vector2d(1.5, -2.0);
   /// True Fraser + affine parameters [K1, K2, K3, P1, P2, B1 (px), B2 (px)]
-  /// (DESIGN.md section 5; K and P dimensionless on normalised coordinates).
+  /// (docs/conventions.md; K and P dimensionless on normalised coordinates).
   std::array<double, 7> distortion = {-0.025, 0.004, 0.0, 2e-4, -1.5e-4, 0.4, -0.2};
 
   // --- the camera as the epoch's SfM estimated it ---

@@ -38,7 +38,7 @@ struct WorldBounds {
 
 /// A digital surface model: `heights()(x, y)` is the height Z at the centre of pixel (x, y), whose
 /// world X/Y is `transform().pixel_to_world({x, y})` (diachron's pixel-centre convention).
-/// Holes (no data) are NaN. The world frame is right-handed with Z up (DESIGN.md section 5).
+/// Holes (no data) are NaN. The world frame is right-handed with Z up (docs/conventions.md).
 ///
 /// A Dsm is immutable once built: its statistics are computed once at construction, which is what
 /// lets ray intersection bound its search by the height range at no cost per ray.

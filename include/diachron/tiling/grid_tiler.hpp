@@ -27,7 +27,7 @@
 namespace diachron {
 
 /// An axis-aligned rectangle of whole pixels: columns [x, x + width), rows [y, y + height).
-/// With the pixel-centre convention (DESIGN.md section 5) pixel i covers [i - 0.5, i + 0.5), so
+/// With the pixel-centre convention (docs/conventions.md) pixel i covers [i - 0.5, i + 0.5), so
 /// the rectangle covers the continuous area [x - 0.5, x + width - 0.5) x [y - 0.5, y + height - 0.5).
 struct PixelRect {
   int x = 0;       ///< first column, px

@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// The PairMatcher and FeatureExtractor concepts (DESIGN.md section 3), their detection traits and
+/// The PairMatcher and FeatureExtractor concepts (docs/architecture.md), their detection traits and
 /// static_assert helpers, and an adapter that makes a PairMatcher from a callable. (The adapter from
 /// a FeatureExtractor plus descriptor matching is vision/extractor_pair_matcher.hpp.)
 ///

@@ -61,7 +61,7 @@ struct AkazeOptions {
   }
 };
 
-/// FeatureExtractor (DESIGN.md section 3) running OpenCV AKAZE on an 8-bit raster.
+/// FeatureExtractor (docs/architecture.md) running OpenCV AKAZE on an 8-bit raster.
 ///
 /// Output: positions in diachron's pixel convention; `scale` = KeyPoint::size (pixels);
 /// `angle` = KeyPoint::angle in radians from +x towards +y in [0, 2 pi), or -1 when upright;

@@ -121,7 +121,7 @@ struct HasExtract<E, std::void_t<decltype(std::declval<const E&>().extract(
 
 }  // namespace detail
 
-/// PairMatcher (DESIGN.md section 3) from a FeatureExtractor: extracts features in both rasters and
+/// PairMatcher (docs/architecture.md) from a FeatureExtractor: extracts features in both rasters and
 /// matches them with match_features. The metric is `Extractor::descriptor_metric()` when the
 /// extractor has one (SiftExtractor: L2, AkazeExtractor: Hamming), otherwise L2 on real-valued
 /// rows: the FeatureExtractor concept (tiling/pair_matcher.hpp) documents L2 as the default, and a

@@ -5,7 +5,7 @@
 /// A view shares memory with the raster (no pixel is copied): writing through it writes the raster,
 /// and it dangles once the raster is resized or destroyed. The copy back (`to_raster`) checks the
 /// Mat's depth and channel count and says what it got. Both sides use the same pixel convention
-/// (element (x, y) is column x, row y; DESIGN.md section 5), so no coordinate changes here.
+/// (element (x, y) is column x, row y; docs/conventions.md), so no coordinate changes here.
 
 #include <cstdint>
 #include <cstring>

@@ -61,7 +61,7 @@ inline void apply_root_sift(DescriptorMatrix& desc) {
 
 }  // namespace detail
 
-/// FeatureExtractor (DESIGN.md section 3) running OpenCV SIFT on an 8-bit raster.
+/// FeatureExtractor (docs/architecture.md) running OpenCV SIFT on an 8-bit raster.
 ///
 /// Output: positions in diachron's pixel convention; `scale` = KeyPoint::size (the diameter of
 /// the descriptor's neighbourhood, in pixels); `angle` = KeyPoint::angle in radians, from +x towards

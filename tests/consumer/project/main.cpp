@@ -1,8 +1,14 @@
 // An outside project: find_package(diachron), link diachron::core, estimate a Helmert robustly.
+// Built against every installed tree the consumer tests make, including one without OpenCV, Ceres
+// and GDAL: the umbrella header and the Helmert RANSAC need Eigen and nanoflann only.
 #include <cstdio>
 #include <vector>
 
 #include <diachron/diachron.hpp>
+
+#if defined(CV_VERSION) || defined(CERES_VERSION_STRING) || defined(GDAL_RELEASE_NAME)
+#error "the Helmert RANSAC pulled in OpenCV, Ceres or GDAL"
+#endif
 
 int main() {
   diachron::RandomStream rng(7);

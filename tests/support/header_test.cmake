@@ -1,0 +1,66 @@
+# Every public header compiles and links alone (included from tests/CMakeLists.txt).
+#
+# One small program per header under include/diachron: the header, included twice (include guard),
+# and an empty main. GCC's -fkeep-inline-functions makes it emit every inline function of the
+# header, used or not, so a call whose definition lives in a header that is not included (Eigen's
+# inverse() or determinant() with only <Eigen/Core>: declared there, defined in <Eigen/LU>) is an
+# undefined reference at link time, and a declaration that is not included fails the compile.
+# (Function templates are checked only where the header itself instantiates them; other compilers
+# get the compile check only.) Each program links alone: linked together, one header's inline
+# functions would supply the definitions another header forgot to include. Built at -O0: the
+# check is about declarations, and with every inline function emitted -O2 would cost twice as much.
+#
+# Each program sees only the dependencies of its component: vision/ gets OpenCV, io/ and the
+# synthetic scene writer GDAL, everything else diachron::core alone (Eigen, nanoflann), so a core
+# header that includes OpenCV or GDAL fails too. Programs whose component was not configured are
+# left out.
+#
+# The programs are not part of the default build: the test headers/alone builds them (all of them,
+# reporting every failure), so one header that does not stand alone fails that test, not the build.
+
+set(DIACHRON_HEADER_TEST_JOBS 2 CACHE STRING "Parallel jobs of the headers/alone test's build")
+set(_header_root ${PROJECT_SOURCE_DIR}/include)
+file(GLOB_RECURSE _headers CONFIGURE_DEPENDS RELATIVE ${_header_root} ${_header_root}/diachron/*.hpp)
+set(_header_dir ${CMAKE_CURRENT_BINARY_DIR}/header_test)
+add_custom_target(diachron_header_checks)
+set(_header_count 0)
+foreach(header IN LISTS _headers)
+  if(header MATCHES "^diachron/vision/")
+    set(_component vision)
+  elseif(header MATCHES "^diachron/io/" OR header STREQUAL "diachron/synth/scene_io.hpp")
+    set(_component io)
+  else()
+    set(_component core)
+  endif()
+  if(NOT TARGET diachron_${_component})
+    continue()
+  endif()
+  string(REGEX REPLACE "^diachron/(.*)\\.hpp$" "\\1" _name ${header})
+  string(REPLACE "/" "_" _name ${_name})
+  set(_source ${_header_dir}/${_name}.cpp)
+  # Written only when its content changes, so a re-configure does not rebuild every program.
+  file(CONFIGURE OUTPUT ${_source} CONTENT
+       "#include <${header}>\n#include <${header}>  // twice: the include guard\n\nint main() { return 0; }\n")
+  set(_target header_${_name})
+  add_executable(${_target} EXCLUDE_FROM_ALL ${_source})
+  target_link_libraries(${_target} PRIVATE diachron::${_component})
+  diachron_program(${_target})
+  target_compile_options(${_target} PRIVATE -O0)
+  if(CMAKE_CXX_COMPILER_ID STREQUAL "GNU")
+    target_compile_options(${_target} PRIVATE -fkeep-inline-functions)
+  endif()
+  add_dependencies(diachron_header_checks ${_target})
+  math(EXPR _header_count "${_header_count} + 1")
+endforeach()
+
+set(_keep_going "")
+if(CMAKE_GENERATOR MATCHES "Make")
+  set(_keep_going -- -k)
+elseif(CMAKE_GENERATOR MATCHES "Ninja")
+  set(_keep_going -- -k 0)
+endif()
+add_test(NAME headers/alone
+         COMMAND ${CMAKE_COMMAND} --build ${PROJECT_BINARY_DIR} --target diachron_header_checks
+                 --parallel ${DIACHRON_HEADER_TEST_JOBS} ${_keep_going})
+set_tests_properties(headers/alone PROPERTIES LABELS headers TIMEOUT 1800)
+message(STATUS "diachron: headers/alone checks ${_header_count} public headers")
