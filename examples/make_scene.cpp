@@ -1,6 +1,7 @@
 /// @file
-/// make_scene: generates a synthetic multi-epoch scene and writes it to a folder (PNG images,
-/// GeoTIFF DSMs, truth text file; see docs/synthetic-scenes.md), then prints a summary.
+/// make_scene: generates a synthetic multi-epoch scene and writes it to a folder as each epoch's
+/// SfM would deliver it (per epoch: images, a COLMAP text model of the estimated orientation, the
+/// DSM), with the truth apart in truth/ (docs/synthetic-scenes.md), then prints a summary.
 ///
 ///   make_scene OUT_DIR [--preset plain|decades] [--seed N] [--dem PATH] [--images-per-epoch RxC]
 ///              [--image-size WxH] [--epochs N] [--check-points N] [--dome M] [--offset X,Y] [--threads N]

@@ -31,6 +31,7 @@
 #include <diachron/robust/msac_scoring.hpp>
 #include <diachron/robust/no_local_optimization.hpp>
 #include <diachron/robust/prosac_sampler.hpp>
+#include <diachron/robust/prosac_termination.hpp>
 #include <diachron/robust/ransac.hpp>
 #include <diachron/robust/ransac_options.hpp>
 #include <diachron/robust/ransac_problem.hpp>

@@ -114,6 +114,10 @@ inline SceneOptions SceneOptions::decades_apart() {
   // Landscape: fewer, more clustered buildings than the small test scene (whose density suits a
   // village-sized area), trees with height, and the changes of about forty years.
   o.terrain.building_density_per_km2 = 110.0;
+  // Terrain with small-scale relief (banks, gullies, terraces down to about 10 m wavelength): the
+  // part of a DSM that decades do not change, which the rough co-registration relies on.
+  o.terrain.relief_amplitude_m = 25.0;
+  o.terrain.relief_octaves = 7;
   o.terrain.village_fraction = 0.8;
   o.terrain.vegetation.forest_fraction = 0.12;
   o.terrain.vegetation.single_trees_per_km2 = 60.0;
@@ -162,7 +166,9 @@ inline SceneOptions SceneOptions::decades_apart() {
   e1.look.scratches = 6;
   e1.look.dust_per_megapixel = 400.0;
   e1.look.blur_sigma_px = 1.0;
-  e1.dsm.noise_sigma_m = 0.5;
+  // A DSM at 2 GSD (MicMac's usual ZoomF 2 on scanned film), so both epochs' DSMs have 2 m cells.
+  e1.dsm.cell_gsd = 2.0;
+  e1.dsm.noise_sigma_m = 0.4;
   e1.dsm.ripple_m = 1.0;
   e1.dsm.hole_fraction = 0.08;
   e1.dsm.hole_radius_m = 20.0;
