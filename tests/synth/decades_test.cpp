@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <type_traits>
 #include <vector>
 
 #include <catch2/catch.hpp>
@@ -77,6 +78,10 @@ TEST_CASE("decades_apart: two epochs, e1 historical at twice the GSD of e2, ever
   // Suns far apart, so cast shadows fall on other sides.
   CHECK(std::abs(e1.look.sun_azimuth_deg - e2.look.sun_azimuth_deg) >= 60.0);
 }
+
+// The tracer behind renders, shadows and the truth keeps a pointer to its DSM: no temporaries.
+static_assert(std::is_constructible_v<detail::SurfaceTracer, const Dsm&>);
+static_assert(!std::is_constructible_v<detail::SurfaceTracer, Dsm&&>);
 
 TEST_CASE("cast shadows: the shading map agrees with a brute-force ray test around a tower", "[synth][decades]") {
   Landscape land = flat_land();

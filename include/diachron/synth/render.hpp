@@ -119,6 +119,8 @@ class SurfaceTracer {
  public:
   static constexpr int kBlock = 8;  // cells per block side
 
+  /// Keeps a pointer to `dsm`, which must outlive the tracer (a temporary is refused).
+  explicit SurfaceTracer(const Dsm&&) = delete;
   explicit SurfaceTracer(const Dsm& dsm) : dsm_(&dsm) {
     DIACHRON_CHECK(!dsm.empty(), "SurfaceTracer: empty DSM");
     const int w = dsm.width(), h = dsm.height();

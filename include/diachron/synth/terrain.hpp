@@ -321,6 +321,20 @@ struct Landscape {
 
 namespace detail {
 
+/// The cells of a `width` x `height` grid with geotransform `t` that a disc of `radius` metres
+/// around `centre` can touch: [x0, x1] x [y0, y1], empty (x0 > x1) when it misses the grid.
+struct CellBox {
+  int x0 = 0, x1 = -1, y0 = 0, y1 = -1;
+};
+inline CellBox cell_box(const GeoTransform& t, const Vec2& centre, double radius, int width, int height) {
+  const Vec2 p0 = t.world_to_pixel(centre - Vec2(radius, -radius));
+  const Vec2 p1 = t.world_to_pixel(centre + Vec2(radius, -radius));
+  return {std::max(0, static_cast<int>(std::floor(std::min(p0.x(), p1.x())))),
+          std::min(width - 1, static_cast<int>(std::ceil(std::max(p0.x(), p1.x())))),
+          std::max(0, static_cast<int>(std::floor(std::min(p0.y(), p1.y())))),
+          std::min(height - 1, static_cast<int>(std::ceil(std::max(p0.y(), p1.y()))))};
+}
+
 /// Fills NaN cells of `heights` with the mean of their valid 8-neighbours, sweeping until none is
 /// left (or no progress), so that a real DEM with nodata gaps becomes a closed surface.
 inline void fill_dem_holes(Raster<float>& heights) {
@@ -691,14 +705,9 @@ inline Dsm surface_dsm(const Landscape& land, int epoch) {
   for (const Building& b : land.buildings) {
     if (!b.exists_in(epoch)) continue;
     const double r = b.radius();
-    const Vec2 p0 = t.world_to_pixel(b.centre - Vec2(r, -r));
-    const Vec2 p1 = t.world_to_pixel(b.centre + Vec2(r, -r));
-    const int x0 = std::max(0, static_cast<int>(std::floor(std::min(p0.x(), p1.x()))));
-    const int x1 = std::min(heights.width() - 1, static_cast<int>(std::ceil(std::max(p0.x(), p1.x()))));
-    const int y0 = std::max(0, static_cast<int>(std::floor(std::min(p0.y(), p1.y()))));
-    const int y1 = std::min(heights.height() - 1, static_cast<int>(std::ceil(std::max(p0.y(), p1.y()))));
-    for (int y = y0; y <= y1; ++y)
-      for (int x = x0; x <= x1; ++x) {
+    const detail::CellBox box = detail::cell_box(t, b.centre, r, heights.width(), heights.height());
+    for (int y = box.y0; y <= box.y1; ++y)
+      for (int x = box.x0; x <= box.x1; ++x) {
         const Vec2 xy = t.pixel_to_world(Vec2(x, y));
         if (!b.contains(xy)) continue;
         heights(x, y) = std::max(heights(x, y), static_cast<float>(b.roof_z(xy)));
@@ -707,14 +716,9 @@ inline Dsm surface_dsm(const Landscape& land, int epoch) {
   for (const Tree& tree : land.trees) {
     if (!tree.exists_in(epoch)) continue;
     const double r = tree.crown_radius(epoch);
-    const Vec2 p0 = t.world_to_pixel(tree.centre - Vec2(r, -r));
-    const Vec2 p1 = t.world_to_pixel(tree.centre + Vec2(r, -r));
-    const int x0 = std::max(0, static_cast<int>(std::floor(std::min(p0.x(), p1.x()))));
-    const int x1 = std::min(heights.width() - 1, static_cast<int>(std::ceil(std::max(p0.x(), p1.x()))));
-    const int y0 = std::max(0, static_cast<int>(std::floor(std::min(p0.y(), p1.y()))));
-    const int y1 = std::min(heights.height() - 1, static_cast<int>(std::ceil(std::max(p0.y(), p1.y()))));
-    for (int y = y0; y <= y1; ++y)
-      for (int x = x0; x <= x1; ++x) {
+    const detail::CellBox box = detail::cell_box(t, tree.centre, r, heights.width(), heights.height());
+    for (int y = box.y0; y <= box.y1; ++y)
+      for (int x = box.x0; x <= box.x1; ++x) {
         const double z = tree.crown_z((t.pixel_to_world(Vec2(x, y)) - tree.centre).norm(), epoch);
         if (std::isfinite(z)) heights(x, y) = std::max(heights(x, y), static_cast<float>(z));
       }

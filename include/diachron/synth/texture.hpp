@@ -373,14 +373,9 @@ inline AlbedoMap render_albedo(const Landscape& land, int epoch, const WorldBoun
   // Roofs over everything: outline darker so that footprints show in the images.
   for (const Building* b : buildings) {
     const double r = b->radius();
-    const Vec2 p0 = map.transform.world_to_pixel(b->centre - Vec2(r, -r));
-    const Vec2 p1 = map.transform.world_to_pixel(b->centre + Vec2(r, -r));
-    const int x0 = std::max(0, static_cast<int>(std::floor(std::min(p0.x(), p1.x()))));
-    const int x1 = std::min(w - 1, static_cast<int>(std::ceil(std::max(p0.x(), p1.x()))));
-    const int y0 = std::max(0, static_cast<int>(std::floor(std::min(p0.y(), p1.y()))));
-    const int y1 = std::min(h - 1, static_cast<int>(std::ceil(std::max(p0.y(), p1.y()))));
-    for (int y = y0; y <= y1; ++y)
-      for (int x = x0; x <= x1; ++x) {
+    const detail::CellBox box = detail::cell_box(map.transform, b->centre, r, w, h);
+    for (int y = box.y0; y <= box.y1; ++y)
+      for (int x = box.x0; x <= box.x1; ++x) {
         const Vec2 xy = map.transform.pixel_to_world(Vec2(x, y));
         const Vec2 l = b->local(xy);
         const double du = b->half_length - std::abs(l.x()), dv = b->half_width - std::abs(l.y());
@@ -396,15 +391,10 @@ inline AlbedoMap render_albedo(const Landscape& land, int epoch, const WorldBoun
   for (const Tree& tree : land.trees) {
     if (!tree.exists_in(epoch)) continue;
     const double r = tree.crown_radius(epoch);
-    const Vec2 p0 = map.transform.world_to_pixel(tree.centre - Vec2(r, -r));
-    const Vec2 p1 = map.transform.world_to_pixel(tree.centre + Vec2(r, -r));
-    const int x0 = std::max(0, static_cast<int>(std::floor(std::min(p0.x(), p1.x()))));
-    const int x1 = std::min(w - 1, static_cast<int>(std::ceil(std::max(p0.x(), p1.x()))));
-    const int y0 = std::max(0, static_cast<int>(std::floor(std::min(p0.y(), p1.y()))));
-    const int y1 = std::min(h - 1, static_cast<int>(std::ceil(std::max(p0.y(), p1.y()))));
+    const detail::CellBox box = detail::cell_box(map.transform, tree.centre, r, w, h);
     const std::uint64_t crown_seed = detail::mix64(tree.seed + static_cast<std::uint64_t>(epoch) * 0x9e3779b97f4a7c15ULL);
-    for (int y = y0; y <= y1; ++y)
-      for (int x = x0; x <= x1; ++x) {
+    for (int y = box.y0; y <= box.y1; ++y)
+      for (int x = box.x0; x <= box.x1; ++x) {
         const Vec2 xy = map.transform.pixel_to_world(Vec2(x, y));
         const double d = (xy - tree.centre).norm();
         if (d >= r) continue;
