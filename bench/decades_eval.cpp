@@ -479,9 +479,12 @@ int main(int argc, char** argv) {
         }
         const std::vector<std::string> methods = v == 0 ? args.methods : std::vector<std::string>{"sift"};
         for (const std::string& m : methods) {
-          std::vector<Features> f1, f2;
-          for (const SyntheticImage& image : scene.epochs[0].images) f1.push_back(extract(m, image.pixels, args.max_features, xfeat));
-          for (const SyntheticImage& image : scene.epochs[1].images) f2.push_back(extract(m, image.pixels, args.max_features, xfeat));
+          const auto extract_epoch = [&](std::size_t e, int max_features) {
+            std::vector<Features> out;
+            for (const SyntheticImage& image : scene.epochs[e].images) out.push_back(extract(m, image.pixels, max_features, xfeat));
+            return out;
+          };
+          std::vector<Features> f1 = extract_epoch(0, args.max_features), f2 = extract_epoch(1, args.max_features);
           std::size_t n1 = 0, n2 = 0;
           for (const Features& f : f1) n1 += f.size();
           for (const Features& f : f2) n2 += f.size();
@@ -492,21 +495,22 @@ int main(int argc, char** argv) {
                         metric_of(m), m == "xfeat-mnn", result);
           if (m == "sift") {
             if (args.oracle_max_features != args.max_features) {
-              f1.clear();
-              f2.clear();
-              for (const SyntheticImage& image : scene.epochs[0].images) f1.push_back(extract(m, image.pixels, args.oracle_max_features, xfeat));
-              for (const SyntheticImage& image : scene.epochs[1].images) f2.push_back(extract(m, image.pixels, args.oracle_max_features, xfeat));
+              f1 = extract_epoch(0, args.oracle_max_features);
+              f2 = extract_epoch(1, args.oracle_max_features);
             }
             OracleResult& oracle = v == 0 ? main_oracle : row.oracle;
             for (const ImagePair& pair : pairs)
               oracle_guided(truth, pair, f1[static_cast<std::size_t>(pair.i)], f2[static_cast<std::size_t>(pair.j)], oracle);
             std::fprintf(stderr, "    oracle-guided SIFT: median %.0f correct (< 3 px) per pair so far; whole-image SIFT %.1f %% correct < 10 px\n",
                          median(oracle.correct3_per_pair), result.tentative.share(3));
-            if (v == 0) row.sift = result;
           }
           std::fprintf(stderr, "    %s: %zu pairs so far\n", m.c_str(), result.pairs);
         }
-        if (v == 0) row.oracle = main_oracle;
+      }
+      if (v == 0) {
+        // The first row of the ablation table is the main run's SIFT and oracle.
+        if (main_results.count("sift")) row.sift = main_results.at("sift");
+        row.oracle = main_oracle;
       }
       rows.push_back(std::move(row));
     }

@@ -577,23 +577,19 @@ ConversionResult<ColmapCamera> colmap_camera_from_camera(const Camera<Distortion
   out.model.id = camera_id;
   out.model.width = camera.width();
   out.model.height = camera.height();
-  if (fraser.params()[2] == 0.0 && fraser.params()[6] == 0.0) {
-    const ConversionResult<ColmapOpenCv> r = colmap_opencv_from_camera(fraser, options);
-    out.model.model = ColmapOpenCv::kModelName;
+  // OPENCV holds the camera when K3 and the shear B2 are zero; FULL_OPENCV otherwise.
+  const auto take = [&out](const auto& r, const char* name) {
+    out.model.model = name;
     out.model.params = r.model.params();
     out.exact = r.exact;
     out.max_error_px = r.max_error_px;
     out.rms_error_px = r.rms_error_px;
     out.num_samples = r.num_samples;
-  } else {
-    const ConversionResult<ColmapFullOpenCv> r = colmap_full_opencv_from_camera(fraser, options);
-    out.model.model = ColmapFullOpenCv::kModelName;
-    out.model.params = r.model.params();
-    out.exact = r.exact;
-    out.max_error_px = r.max_error_px;
-    out.rms_error_px = r.rms_error_px;
-    out.num_samples = r.num_samples;
-  }
+  };
+  if (fraser.params()[2] == 0.0 && fraser.params()[6] == 0.0)
+    take(colmap_opencv_from_camera(fraser, options), ColmapOpenCv::kModelName);
+  else
+    take(colmap_full_opencv_from_camera(fraser, options), ColmapFullOpenCv::kModelName);
   return out;
 }
 
