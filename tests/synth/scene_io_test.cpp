@@ -19,6 +19,8 @@
 #include <catch2/catch.hpp>
 
 #ifdef DIACHRON_HAVE_GDAL
+#include <diachron/io/epoch_folder.hpp>
+#include <diachron/io/helmert_json.hpp>
 #include <diachron/synth/scene_io.hpp>
 
 #include "support/colmap_binary.hpp"
@@ -300,6 +302,63 @@ TEST_CASE("read_scene names the file and line it cannot read", "[synth][io]") {
   renamed.epochs[0].name = "truth";
   CHECK_THROWS_WITH(write_scene(renamed, temp_folder("renamed")), Catch::Contains("'truth'"));
   CHECK_NOTHROW(read_scene(dir));
+}
+
+TEST_CASE("read_epoch_folder reads what write_scene wrote, and names what is missing", "[synth][io]") {
+  const Scene& scene = small_scene();
+  const std::string dir = temp_folder("epoch_folder");
+  write_scene(scene, dir);
+  for (std::size_t e = 0; e < scene.epochs.size(); ++e) {
+    const SyntheticEpoch& epoch = scene.epochs[e];
+    const EpochFolder folder = read_epoch_folder(dir + "/" + epoch.name);
+    REQUIRE(folder.images.size() == epoch.images.size());
+    CHECK(diachron::test::same_values(folder.dsm.heights(), epoch.dsm.heights()));
+    for (std::size_t i = 0; i < epoch.images.size(); ++i) {
+      const EpochImage& image = folder.images[i];
+      CHECK(image.name == epoch.images[i].name + ".png");
+      CHECK(folder.find(image.name) == i);
+      CHECK(image.conversion_error_px == 0.0);
+      check_camera_via_colmap(image.frame.camera(), epoch.estimated_camera);
+      check_pose_via_colmap(image.frame.pose(), epoch.images[i].estimated_pose);
+      const Raster<std::uint8_t> pixels = folder.load_image(i);
+      CHECK(std::equal(pixels.begin(), pixels.end(), epoch.images[i].pixels.begin()));
+    }
+    CHECK(folder.find("nothing.png") == folder.images.size());
+  }
+  const std::string e1 = dir + "/" + scene.epochs[0].name;
+  const std::string missing = e1 + "/images/" + scene.epochs[0].images[1].name + ".png";
+  REQUIRE(std::rename(missing.c_str(), (missing + ".away").c_str()) == 0);
+  CHECK_THROWS_WITH(read_epoch_folder(e1), Catch::Contains("image '" + scene.epochs[0].images[1].name + ".png'") &&
+                                               Catch::Contains("missing from images/"));
+  REQUIRE(std::rename((missing + ".away").c_str(), missing.c_str()) == 0);
+  CHECK_THROWS_WITH(read_epoch_folder(dir + "/nowhere"), Catch::Contains("does not exist"));
+  {
+    // A camera model diachron does not hold stops the read, naming it.
+    const std::string cameras = e1 + "/cameras.txt";
+    const std::string original = read_text(cameras);
+    std::string broken = original;
+    const auto at = broken.find("OPENCV");
+    REQUIRE(at != std::string::npos);
+    broken.replace(at, 6, "OPENCV_FISHEYE");
+    std::ofstream(cameras) << broken;
+    CHECK_THROWS_WITH(read_epoch_folder(e1), Catch::Contains("OPENCV_FISHEYE"));
+    std::ofstream(cameras) << original;
+  }
+  CHECK_NOTHROW(read_epoch_folder(e1));
+
+  // The Helmert file of the programs reads back to the same doubles, and rejects what is not one.
+  const Helmert3 h = scene.epoch2_from_epoch1();
+  const std::string json = dir + "/helmert.json";
+  write_helmert_json(h, json);
+  const Helmert3 back = read_helmert_json(json);
+  CHECK(back.scale == h.scale);
+  CHECK(back.rotation == h.rotation);
+  CHECK(back.translation == h.translation);
+  std::ofstream(json) << "{\"scale\": 2, \"rotation\": [[1, 0, 0], [0, 1, 0], [0, 0, 2]], \"translation\": [0, 0, 0]}";
+  CHECK_THROWS_WITH(read_helmert_json(json), Catch::Contains("not a rotation matrix"));
+  std::ofstream(json) << "{\"scale\": 1, \"rotation\": [[1, 0, 0], [0, 1, 0]], \"translation\": [0, 0, 0]}";
+  CHECK_THROWS_WITH(read_helmert_json(json), Catch::Contains("9 rotation"));
+  CHECK_THROWS_WITH(read_helmert_json(dir + "/none.json"), Catch::Contains("no such file"));
 }
 
 #else

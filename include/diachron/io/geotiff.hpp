@@ -1,7 +1,7 @@
 #pragma once
 /// @file
 /// GeoTIFF DSMs through GDAL: read a single-band raster into a Dsm (nodata -> NaN, geotransform,
-/// CRS), write a Dsm back as float32 GeoTIFF with nodata, and write 8-bit images (PNG / TIFF).
+/// CRS), write a Dsm back as float32 GeoTIFF with nodata, and read and write 8-bit images (PNG / TIFF).
 /// Part of diachron::io: include it only from code that links GDAL.
 
 #include <cctype>
@@ -235,6 +235,31 @@ inline void write_geotiff_dsm(const Dsm& dsm, const std::string& path, const Geo
                                     dsm.height(), GDT_Float32, 0, 0, nullptr);
   DIACHRON_CHECK(err == CE_None, "cannot write '" << path << "': write failed" << detail::QuietGdalErrors::last_message());
   detail::close_written(ds, path);
+}
+
+/// Reads an 8-bit single-band image (PNG, TIFF, JPEG: anything GDAL opens whose band is Byte), e.g.
+/// an epoch folder's images. No georeferencing is needed. Throws diachron::Error naming the file
+/// when it is missing, cannot be opened, has several bands, or its samples are not 8-bit.
+inline Raster<std::uint8_t> read_image_u8(const std::string& path) {
+  detail::gdal_register_once();
+  DIACHRON_CHECK(detail::file_exists(path), "cannot read image '" << path << "': no such file");
+  const detail::QuietGdalErrors quiet;
+  detail::GdalDatasetPtr ds(GDALDataset::FromHandle(
+      GDALOpenEx(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY, nullptr, nullptr, nullptr)));
+  DIACHRON_CHECK(ds != nullptr, "cannot read image '" << path << "': not a raster GDAL can open"
+                                                      << detail::QuietGdalErrors::last_message());
+  DIACHRON_CHECK(ds->GetRasterCount() == 1,
+                 "cannot read image '" << path << "': it has " << ds->GetRasterCount() << " bands, one (grey) expected");
+  GDALRasterBand* band = ds->GetRasterBand(1);
+  DIACHRON_CHECK(band->GetRasterDataType() == GDT_Byte,
+                 "cannot read image '" << path << "': samples are " << GDALGetDataTypeName(band->GetRasterDataType())
+                                       << ", 8-bit expected");
+  const int w = ds->GetRasterXSize(), h = ds->GetRasterYSize();
+  DIACHRON_CHECK(w > 0 && h > 0, "cannot read image '" << path << "': empty raster " << w << " x " << h);
+  Raster<std::uint8_t> out(w, h);
+  const CPLErr err = band->RasterIO(GF_Read, 0, 0, w, h, out.data(), w, h, GDT_Byte, 0, 0, nullptr);
+  DIACHRON_CHECK(err == CE_None, "cannot read image '" << path << "': read failed" << detail::QuietGdalErrors::last_message());
+  return out;
 }
 
 /// Writes an 8-bit single-band image; the format follows the extension (.png PNG, .jpg JPEG,

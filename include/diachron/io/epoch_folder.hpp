@@ -1,0 +1,101 @@
+#pragma once
+/// @file
+/// Epoch folders, the exchange format of the pipeline (docs/architecture.md): a COLMAP text model
+/// (cameras.txt, images.txt, points3D.txt), the images under images/ and the epoch's DSM as
+/// dsm.tif, in the model's frame. read_epoch_folder() checks the whole folder up front, so a
+/// missing image or an unknown camera stops the run before any work, with the file named. Images
+/// are read on demand (EpochFolder::load_image): archives hold hundreds of large scans.
+/// Needs GDAL (diachron::io).
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <sys/stat.h>
+
+#include <diachron/camera/camera.hpp>
+#include <diachron/camera/distortion.hpp>
+#include <diachron/camera/frame.hpp>
+#include <diachron/core/error.hpp>
+#include <diachron/core/raster.hpp>
+#include <diachron/io/colmap_text.hpp>
+#include <diachron/io/geotiff.hpp>
+#include <diachron/terrain/dsm.hpp>
+
+namespace diachron {
+
+/// One image of an epoch folder: its COLMAP id and name (relative to images/), the file it is read
+/// from, and its orientation as a diachron Frame (camera converted from the COLMAP model, pose in
+/// the model's frame, diachron pixel convention).
+struct EpochImage {
+  std::uint32_t id = 0;
+  std::string name;
+  std::string path;
+  Frame<FraserAffine> frame{Camera<FraserAffine>(1.0, 0.0, 0.0, 1, 1), Pose{}};
+  /// Largest difference (px) between COLMAP's projection and the converted camera's over the
+  /// image; 0 for models diachron holds exactly (every model it reads but FULL_OPENCV with K4-K6).
+  double conversion_error_px = 0.0;
+};
+
+/// An epoch folder as read: the model, its images in images.txt order (by id), and the DSM.
+struct EpochFolder {
+  std::string directory;
+  ColmapModel model;
+  std::vector<EpochImage> images;
+  Dsm dsm;
+
+  /// Index of the image called `name` in `images`, or images.size() when there is none.
+  std::size_t find(const std::string& name) const {
+    for (std::size_t i = 0; i < images.size(); ++i)
+      if (images[i].name == name) return i;
+    return images.size();
+  }
+
+  /// Reads image `i` (8-bit grey). Throws diachron::Error naming the file when it cannot be read or
+  /// its size is not its camera's.
+  Raster<std::uint8_t> load_image(std::size_t i) const {
+    DIACHRON_CHECK(i < images.size(), "EpochFolder::load_image: image " << i << " of " << images.size());
+    Raster<std::uint8_t> image = read_image_u8(images[i].path);
+    const Camera<FraserAffine>& camera = images[i].frame.camera();
+    DIACHRON_CHECK(image.width() == camera.width() && image.height() == camera.height(),
+                   "image '" << images[i].path << "' is " << image.width() << " x " << image.height()
+                             << " px but its camera in " << directory << "/cameras.txt is " << camera.width() << " x "
+                             << camera.height());
+    return image;
+  }
+};
+
+/// Reads the epoch folder `directory`: `cameras.txt`, `images.txt`, `points3D.txt`, `dsm.tif`, and
+/// checks that every image of images.txt exists under `images/`. Throws diachron::Error naming the
+/// file (and line) when the folder, a file or an image is missing, a file cannot be parsed, a
+/// camera model has no diachron counterpart, or the DSM has no valid cell.
+inline EpochFolder read_epoch_folder(const std::string& directory) {
+  struct stat info {};
+  DIACHRON_CHECK(!directory.empty() && ::stat(directory.c_str(), &info) == 0 && S_ISDIR(info.st_mode),
+                 "epoch folder '" << directory << "' does not exist or is not a folder");
+  EpochFolder out;
+  out.directory = directory;
+  out.model = read_colmap_text(directory);
+  DIACHRON_CHECK(!out.model.images.empty(), "epoch folder '" << directory << "': images.txt lists no image");
+  out.dsm = read_geotiff_dsm(directory + "/dsm.tif");
+  DIACHRON_CHECK(out.dsm.statistics().count > 0, "epoch folder '" << directory << "': dsm.tif has no valid cell");
+  for (const auto& [id, colmap_image] : out.model.images) {
+    EpochImage image;
+    image.id = id;
+    image.name = colmap_image.name;
+    image.path = directory + "/images/" + colmap_image.name;
+    DIACHRON_CHECK(::stat(image.path.c_str(), &info) == 0 && S_ISREG(info.st_mode),
+                   "epoch folder '" << directory << "': image '" << colmap_image.name << "' (id " << id
+                                    << " in images.txt) is missing from images/");
+    const ColmapCamera& colmap_camera = out.model.cameras.at(colmap_image.camera_id);  // check()ed by the reader
+    const ConversionResult<Camera<FraserAffine>> camera = camera_from_colmap(colmap_camera);
+    image.frame = Frame<FraserAffine>(camera.model, colmap_image.pose);
+    image.conversion_error_px = camera.exact ? 0.0 : camera.max_error_px;
+    out.images.push_back(std::move(image));
+  }
+  return out;
+}
+
+}  // namespace diachron
