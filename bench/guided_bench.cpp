@@ -157,7 +157,7 @@ int main(int argc, char** argv) {
   estimate.translation += Eigen::Vector2d(5.0, -4.0);
   double worst_px = 0.0;
   for (const Eigen::Vector2d& c : {Eigen::Vector2d(0, 0), Eigen::Vector2d(size - 1, 0), Eigen::Vector2d(0, size - 1),
-                                  Eigen::Vector2d(size - 1, size - 1)})
+                                   Eigen::Vector2d(size - 1, size - 1)})
     worst_px = std::max(worst_px, (estimate(c) - truth(c)).norm());
 
   const cv::Mat master_img = make_texture(size, seed);
@@ -197,17 +197,17 @@ int main(int argc, char** argv) {
   double load[1] = {0.0};
   if (getloadavg(load, 1) != 1) load[0] = -1.0;
   std::cout << "guided_bench: " << size << " x " << size << " px texture, similarity scale 0.85, 25 deg; "
-            << "estimate off by up to " << std::fixed << std::setprecision(1) << worst_px << " px; "
-            << master.size() << " / " << secondary.size() << " RootSIFT keypoints; OpenCV " << CV_VERSION
-            << "; one thread each; median of " << runs << " runs; load average " << std::setprecision(2)
-            << load[0] << "\n"
+            << "estimate off by up to " << std::fixed << std::setprecision(1) << worst_px << " px; " << master.size()
+            << " / " << secondary.size() << " RootSIFT keypoints; OpenCV " << CV_VERSION
+            << "; one thread each; median of " << runs << " runs; load average " << std::setprecision(2) << load[0]
+            << "\n"
             << "flags: " << DIACHRON_BENCH_FLAGS << "\n\n";
   std::cout << "| matcher | CPU time (ms) | wall time (ms) | matches | correct (<= 3 px) | precision |\n"
             << "|---|---|---|---|---|---|\n";
   auto row = [&](const char* name, double t, double wall, const Pairs& p, std::size_t ok) {
-    std::cout << "| " << name << " | " << std::setprecision(1) << t << " | " << wall << " | " << p.pairs.size()
-              << " | " << ok << " | "
-              << std::setprecision(3) << (p.pairs.empty() ? 0.0 : static_cast<double>(ok) / p.pairs.size()) << " |\n";
+    std::cout << "| " << name << " | " << std::setprecision(1) << t << " | " << wall << " | " << p.pairs.size() << " | "
+              << ok << " | " << std::setprecision(3)
+              << (p.pairs.empty() ? 0.0 : static_cast<double>(ok) / p.pairs.size()) << " |\n";
   };
   row("cv::BFMatcher knn 2 + ratio 0.8 + mutual", bf_t, bf_wall, bf_pairs, bf_ok);
   row("guided_match (defaults, radius 100 px)", guided_t, guided_wall, guided_pairs, guided_ok);

@@ -13,9 +13,9 @@
 #include <diachron/core/random.hpp>
 #include <diachron/io/homol.hpp>
 
+using Catch::Matchers::Contains;
 using diachron::PointMatch;
 using diachron::PointMatches;
-using Catch::Matchers::Contains;
 
 namespace {
 

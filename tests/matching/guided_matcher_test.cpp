@@ -15,6 +15,7 @@
 #include <diachron/terrain/local_affine.hpp>
 #include <diachron/terrain/transfer.hpp>
 
+using Catch::Matchers::Contains;
 using diachron::DescriptorDistance;
 using diachron::Features;
 using diachron::GuidedMatch;
@@ -22,7 +23,6 @@ using diachron::GuidedMatchOptions;
 using diachron::GuidedMatchResult;
 using diachron::Keypoint;
 using diachron::kPi;
-using Catch::Matchers::Contains;
 
 namespace {
 
@@ -42,7 +42,8 @@ Keypoint keypoint(double x, double y, double scale, double angle) {
 Features features(std::vector<Keypoint> kps, std::vector<std::vector<float>> rows) {
   Features f;
   f.keypoints = std::move(kps);
-  f.descriptors.resize(static_cast<Eigen::Index>(rows.size()), rows.empty() ? 4 : static_cast<Eigen::Index>(rows[0].size()));
+  f.descriptors.resize(static_cast<Eigen::Index>(rows.size()),
+                       rows.empty() ? 4 : static_cast<Eigen::Index>(rows[0].size()));
   for (std::size_t r = 0; r < rows.size(); ++r)
     for (std::size_t c = 0; c < rows[r].size(); ++c)
       f.descriptors(static_cast<Eigen::Index>(r), static_cast<Eigen::Index>(c)) = rows[r][c];
@@ -121,8 +122,8 @@ Two oracle_two(const Features& from, std::size_t i, const Features& to, const T&
   std::vector<double> d(to.size(), kInf);
   for (std::size_t j = 0; j < to.size(); ++j)
     if ((to.keypoints[j].position - p.at).squaredNorm() <= r * r &&
-        oracle_gates(reverse ? to.keypoints[j] : from.keypoints[i], reverse ? from.keypoints[i] : to.keypoints[j], scale,
-                     rotation, o))
+        oracle_gates(reverse ? to.keypoints[j] : from.keypoints[i], reverse ? from.keypoints[i] : to.keypoints[j],
+                     scale, rotation, o))
       d[j] = oracle_distance(from, i, to, j, o.metric);
   for (std::size_t j = 0; j < to.size(); ++j)
     if (d[j] < t.d1) t.d1 = d[j], t.best = j;
@@ -176,7 +177,8 @@ void make_scene(const Map& secondary_from_master, std::size_t n, std::size_t dis
     const double scale = i % 17 == 0 ? 0.0 : rng.uniform(2, 30);
     const double angle = i % 13 == 0 ? -1.0 : rng.uniform(0, 2 * kPi);
     master.keypoints.push_back(keypoint(x.x(), x.y(), scale, angle));
-    for (Eigen::Index c = 0; c < dim; ++c) master.descriptors(static_cast<Eigen::Index>(i), c) = static_cast<float>(rng.uniform(0, 1));
+    for (Eigen::Index c = 0; c < dim; ++c)
+      master.descriptors(static_cast<Eigen::Index>(i), c) = static_cast<float>(rng.uniform(0, 1));
   }
   for (std::size_t j = 0; j < n + distractors; ++j) {
     Keypoint k;
@@ -188,10 +190,12 @@ void make_scene(const Map& secondary_from_master, std::size_t n, std::size_t dis
     const double spread = j < n ? 2.0 : 60.0;
     k.position = at + Eigen::Vector2d(rng.normal(0, spread), rng.normal(0, spread));
     const Keypoint& mk = master.keypoints[src];
-    k.scale = j % 19 == 0 ? 0.0 : (j < n && mk.scale > 0 ? mk.scale * p.scale * rng.uniform(0.75, 1.25) : rng.uniform(2, 30));
+    k.scale =
+        j % 19 == 0 ? 0.0 : (j < n && mk.scale > 0 ? mk.scale * p.scale * rng.uniform(0.75, 1.25) : rng.uniform(2, 30));
     k.angle = j % 23 == 0 ? -1.0
-                          : (j < n && mk.angle >= 0 ? std::fmod(mk.angle + p.rotation + deg(rng.uniform(-40, 40)) + 4 * kPi, 2 * kPi)
-                                                     : rng.uniform(0, 2 * kPi));
+                          : (j < n && mk.angle >= 0
+                                 ? std::fmod(mk.angle + p.rotation + deg(rng.uniform(-40, 40)) + 4 * kPi, 2 * kPi)
+                                 : rng.uniform(0, 2 * kPi));
     secondary.keypoints.push_back(k);
     for (Eigen::Index c = 0; c < dim; ++c)
       secondary.descriptors(static_cast<Eigen::Index>(j), c) =
@@ -321,7 +325,8 @@ TEST_CASE("guided_match: the orientation gate wraps around 0 / 2 pi", "[matching
     const Eigen::Vector2d at = turn(Eigen::Vector2d(100, 100));
     const Features m = features({keypoint(100, 100, 10, deg(355.0))}, {d});
     // 355 + 10 = 5 degrees: 4 matches (1 off); 336 is 29 off, 334 is 31 off.
-    for (const auto& [angle, matches] : {std::pair<double, bool>{4.0, true}, {336.0, true}, {334.0, false}, {40.0, false}}) {
+    for (const auto& [angle, matches] :
+         {std::pair<double, bool>{4.0, true}, {336.0, true}, {334.0, false}, {40.0, false}}) {
       const Features s = features({keypoint(at.x(), at.y(), 10, deg(angle))}, {d});
       const GuidedMatchResult r = diachron::guided_match(m, s, fwd, inv);
       INFO("secondary angle " << angle);
@@ -343,8 +348,13 @@ TEST_CASE("guided_match: the scale gate follows the predicted scale; the radius 
   const std::vector<float> d{0, 1, 0, 0};
   const Features m = features({keypoint(100, 100, 10, 0.5)}, {d});
   // Predicted secondary scale 20: [16, 24] passes.
-  for (const auto& [scale, matches] :
-       {std::pair<double, bool>{20.0, true}, {16.5, true}, {23.5, true}, {15.5, false}, {24.5, false}, {10.0, false}, {0.0, true}}) {
+  for (const auto& [scale, matches] : {std::pair<double, bool>{20.0, true},
+                                       {16.5, true},
+                                       {23.5, true},
+                                       {15.5, false},
+                                       {24.5, false},
+                                       {10.0, false},
+                                       {0.0, true}}) {
     const Features s = features({keypoint(200, 200, scale, 0.5)}, {d});
     const GuidedMatchResult r = diachron::guided_match(m, s, fwd, inv);
     INFO("secondary scale " << scale);
@@ -369,14 +379,16 @@ TEST_CASE("guided_match: the ratio test demotes the old best to second", "[match
   // The spatially nearest candidate is seen first and is the worse one, so the best changes late:
   // a tracker that forgets the demoted best (MicMac's) compares 0.9 to +inf and keeps the match.
   SECTION("0.9 against 1.0 fails") {
-    const Features s = features({keypoint(100, 101, 10, 1.0), keypoint(100, 110, 10, 1.0)}, {{1, 0, 0, 0}, {0.9f, 0, 0, 0}});
+    const Features s =
+        features({keypoint(100, 101, 10, 1.0), keypoint(100, 110, 10, 1.0)}, {{1, 0, 0, 0}, {0.9f, 0, 0, 0}});
     const GuidedMatchResult r = diachron::guided_match(m, s, identity, identity);
     CHECK(r.pairs.empty());
     CHECK(r.failed_ratio == 1);
     CHECK_FALSE(r.success);
   }
   SECTION("0.7 against 1.0 passes, with the right second distance") {
-    const Features s = features({keypoint(100, 101, 10, 1.0), keypoint(100, 110, 10, 1.0)}, {{1, 0, 0, 0}, {0.7f, 0, 0, 0}});
+    const Features s =
+        features({keypoint(100, 101, 10, 1.0), keypoint(100, 110, 10, 1.0)}, {{1, 0, 0, 0}, {0.7f, 0, 0, 0}});
     const GuidedMatchResult r = diachron::guided_match(m, s, identity, identity);
     REQUIRE(r.pairs.size() == 1);
     CHECK(r.pairs[0].secondary == 1);
@@ -385,7 +397,8 @@ TEST_CASE("guided_match: the ratio test demotes the old best to second", "[match
     CHECK(r.success);
   }
   SECTION("a gated-out candidate is no second best") {
-    const Features s = features({keypoint(100, 101, 10, 1.0 + kPi), keypoint(100, 110, 10, 1.0)}, {{1, 0, 0, 0}, {0.9f, 0, 0, 0}});
+    const Features s =
+        features({keypoint(100, 101, 10, 1.0 + kPi), keypoint(100, 110, 10, 1.0)}, {{1, 0, 0, 0}, {0.9f, 0, 0, 0}});
     const GuidedMatchResult r = diachron::guided_match(m, s, identity, identity);
     REQUIRE(r.pairs.size() == 1);
     CHECK(std::isinf(r.pairs[0].second_distance));

@@ -196,8 +196,8 @@ inline std::vector<HomolPair> list_homol_pairs(const std::string& homol_dir) {
           name.compare(name.size() - detail::kHomolExtension.size(), detail::kHomolExtension.size(),
                        detail::kHomolExtension) != 0)
         continue;
-      out.push_back(HomolPair{image1, name.substr(0, name.size() - detail::kHomolExtension.size()),
-                              file.path().string()});
+      out.push_back(
+          HomolPair{image1, name.substr(0, name.size() - detail::kHomolExtension.size()), file.path().string()});
     }
   }
   std::sort(out.begin(), out.end(), [](const HomolPair& a, const HomolPair& b) {

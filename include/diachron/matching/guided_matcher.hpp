@@ -104,8 +104,8 @@ struct GuidedMatchResult {
 struct GuidedPrediction {
   bool valid = false;
   Eigen::Vector2d position = Eigen::Vector2d::Zero();  ///< px in the other image
-  double scale = 1.0;     ///< affine_scale of the local affine: other px per own px
-  double rotation = 0.0;  ///< affine_rotation of the local affine, radians in (-pi, pi]
+  double scale = 1.0;                                  ///< affine_scale of the local affine: other px per own px
+  double rotation = 0.0;                               ///< affine_rotation of the local affine, radians in (-pi, pi]
 };
 
 /// The prediction of `px` through `transfer`: invalid when the transfer or its local affine gives
@@ -197,8 +197,8 @@ inline std::vector<double> descriptor_row_norms(const DescriptorMatrix& m) {
 
 inline void check_guided_features(const Features& f, const char* which) {
   DIACHRON_CHECK(f.descriptors.rows() == static_cast<Eigen::Index>(f.keypoints.size()),
-                 "guided_match: " << which << " has " << f.keypoints.size() << " keypoints but "
-                                  << f.descriptors.rows() << " descriptor rows");
+                 "guided_match: " << which << " has " << f.keypoints.size() << " keypoints but " << f.descriptors.rows()
+                                  << " descriptor rows");
   for (std::size_t i = 0; i < f.keypoints.size(); ++i) {
     const Keypoint& k = f.keypoints[i];
     DIACHRON_CHECK(k.position.allFinite() && std::isfinite(k.scale) && k.scale >= 0.0 && std::isfinite(k.angle),
@@ -245,15 +245,15 @@ GuidedMatchResult guided_match(const Features& master, const Features& secondary
   detail::check_guided_features(secondary, "secondary");
   if (!master.empty() && !secondary.empty())
     DIACHRON_CHECK(master.descriptors.cols() == secondary.descriptors.cols() && master.descriptors.cols() > 0,
-                   "guided_match: descriptor widths differ or are zero: master " << master.descriptors.cols()
-                                                                                 << ", secondary "
-                                                                                 << secondary.descriptors.cols());
+                   "guided_match: descriptor widths differ or are zero: master "
+                       << master.descriptors.cols() << ", secondary " << secondary.descriptors.cols());
 
   GuidedMatchResult result;
   const std::size_t nm = master.size(), ns = secondary.size();
   const double angle_tol = deg_to_rad(options.angle_tolerance_deg);
   const bool cosine = options.metric == DescriptorDistance::Cosine;
-  const std::vector<double> master_norms = cosine ? detail::descriptor_row_norms(master.descriptors) : std::vector<double>();
+  const std::vector<double> master_norms =
+      cosine ? detail::descriptor_row_norms(master.descriptors) : std::vector<double>();
   const std::vector<double> secondary_norms =
       cosine ? detail::descriptor_row_norms(secondary.descriptors) : std::vector<double>();
 
@@ -304,8 +304,8 @@ GuidedMatchResult guided_match(const Features& master, const Features& secondary
       const std::size_t j = targets[t];
       const GuidedPrediction p = predict_keypoint(inverse, secondary.keypoints[j].position, options.affine_step_px);
       if (!p.valid) return;
-      reverse_best[j] = detail::guided_nearest_two(secondary, j, secondary_norms, master, master_index, master_norms,
-                                                   p, options.search_radius_px, true, options, angle_tol)
+      reverse_best[j] = detail::guided_nearest_two(secondary, j, secondary_norms, master, master_index, master_norms, p,
+                                                   options.search_radius_px, true, options, angle_tol)
                             .i1;
     });
   }
@@ -330,7 +330,8 @@ GuidedMatchResult guided_match(const Features& master, const Features& secondary
     m.second_distance = std::sqrt(f.nearest.d2);
     m.score = cosine ? 1.0 - 0.5 * f.nearest.d1 : -m.distance;
     result.pairs.push_back(m);
-    result.matches.push_back(PointMatch{master.keypoints[i].position, secondary.keypoints[m.secondary].position, m.score});
+    result.matches.push_back(
+        PointMatch{master.keypoints[i].position, secondary.keypoints[m.secondary].position, m.score});
   }
   result.predicted = nm - result.no_prediction;
   result.success = !result.pairs.empty();
