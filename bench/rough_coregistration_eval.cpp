@@ -2,14 +2,20 @@
 // ../shared/data: each case moves a window of a DEM into an arbitrary frame (rotation 0-360 deg,
 // scale 0.5-2, shift, small tilt), crops it to a random partial overlap, adds holes and noise
 // (eval/coregistration_case.hpp), runs one configuration, and checks the recovered Helmert against
-// the truth. Success: RMS Helmert error below 2 secondary DSM cells over the overlap.
+// the truth. Success: RMS Helmert error below 2 secondary DSM cells over the overlap (with --gaps,
+// 2 cells of the coarser DSM).
+//
+// With --gaps F1,F2,... (e.g. 2,4,8), the cases have resolution gaps: each source's master or
+// secondary DEM (alternately) is first coarsened F times (block means, matching/scale_hypotheses.hpp),
+// and the real pair Mount St. Helens 2000 (10 m, whole crater) / 2004-10-13 (2 m, dome area only),
+// each whole, joins the sources (alternately as master and as secondary).
 //
 // With --synthetic, the cases are instead synthetic two-epoch scenes (synth/): each epoch's DSM as
 // an SfM delivers it (own frame, noise, holes, changed buildings), truth epoch2_from_epoch1.
 //
 //   rough_coregistration_eval [--data DIR] [--models DIR] [--cases N] [--overlap MIN MAX]
 //                             [--configs C1,C2,...] [--threads N] [--seed S] [--max-features N]
-//                             [--verbose]
+//                             [--gaps F1,F2,...] [--verbose]
 //
 // A configuration is IMAGE/MATCHER/TILING/ROTATIONS, e.g. relief/sift/tiles/rot:
 //   IMAGE     stretch2 stretch5 wallis2 wallis5 hillshade multihillshade slope relief
@@ -17,7 +23,8 @@
 //             matcher gets no validity mask, as before masks existed)
 //   TILING    tiles (640 x 480, no buffer, the paper's) | whole
 //   ROTATIONS rot (0/90/180/270, always) | norot
-// or default/MATCHER/default/default: RoughCoregistrationOptions{} as shipped.
+// or default/MATCHER/default/default: RoughCoregistrationOptions{} as shipped, and
+// noscale/MATCHER/default/default: the same without scale hypotheses.
 // The paper's plain SIFT baseline is stretch2/sift/whole/norot. Prints a Markdown table.
 
 #include <algorithm>
@@ -35,6 +42,7 @@
 
 #include <diachron/eval/coregistration_case.hpp>
 #include <diachron/io/geotiff.hpp>
+#include <diachron/matching/scale_hypotheses.hpp>
 #include <diachron/pipeline/rough_coregistration.hpp>
 #include <diachron/synth/scene.hpp>
 #include <diachron/vision/extractor_pair_matcher.hpp>
@@ -103,6 +111,10 @@ Config parse_config(const std::string& text) {
                      c.matcher == "orb",
                  "unknown matcher '" << c.matcher << "'");
   if (image == "default") return c;
+  if (image == "noscale") {
+    o.scale_hypotheses.enabled = false;
+    return c;
+  }
   if (image == "stretch2" || image == "stretch5") {
     o.image_kind = DsmImageKind::kStretch;
     o.dsm_image.k_sigma = image == "stretch2" ? 2.0 : 5.0;
@@ -175,6 +187,7 @@ int main(int argc, char** argv) {
   double overlap_min = 0.3, overlap_max = 1.0;
   std::uint64_t seed = 1;
   bool verbose = false, synthetic = false;
+  std::vector<int> gaps;  // resolution-gap factors; empty: no gap cases
   std::string configs_text = "stretch2/sift/whole/norot,relief/sift/tiles/rot";
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -195,6 +208,10 @@ int main(int argc, char** argv) {
     else if (a == "--max-features") max_features = std::stoi(next());
     else if (a == "--verbose") verbose = true;
     else if (a == "--synthetic") synthetic = true;
+    else if (a == "--gaps") {
+      std::stringstream gs(next());
+      for (std::string g; std::getline(gs, g, ',');) gaps.push_back(std::stoi(g));
+    }
     else {
       std::cerr << "usage: rough_coregistration_eval [--data DIR] [--models DIR] [--cases N] [--overlap MIN MAX]\n"
                    "       [--configs IMAGE/MATCHER/TILING/ROTATIONS,...] [--threads N] [--seed S] [--verbose]\n";
@@ -202,7 +219,35 @@ int main(int argc, char** argv) {
     }
   }
   try {
-    const std::vector<Source> sources = synthetic ? std::vector<Source>{} : load_sources(data);
+    std::vector<Source> sources = synthetic ? std::vector<Source>{} : load_sources(data);
+    if (!gaps.empty() && !synthetic) {
+      // Each source with its master (even rounds) or secondary (odd rounds) coarsened by each
+      // factor, then the real 10 m / 2 m pair both ways round; cases cycle through the list.
+      std::vector<Source> gapped;
+      for (int round = 0; round < 2; ++round) {
+        for (int f : gaps)
+          for (const Source& src : sources) {
+            Source g = src;
+            g.name = src.name + (round == 0 ? " m/" : " s/") + std::to_string(f);
+            (round == 0 ? g.master : g.secondary) = coarsen_dsm(round == 0 ? src.master : src.secondary, f);
+            gapped.push_back(std::move(g));
+          }
+        const Dsm msh2000 = read_geotiff_dsm(data + "/mount-st-helens/1_msh00_83.tif");
+        const Dsm msh2004 = read_geotiff_dsm(data + "/mount-st-helens/4_msh1013_83.tif");
+        if (round == 0) gapped.push_back({"msh2000-2004 (10 m / 2 m)", msh2000, msh2004, false});
+        else gapped.push_back({"msh2004-2000 (2 m / 10 m)", msh2004, msh2000, false});
+      }
+      // Interleave so that any prefix of the cases covers sources, factors and sides evenly.
+      sources.clear();
+      const std::size_t half = gapped.size() / 2;
+      for (std::size_t i = 0; i < half; ++i) {
+        sources.push_back(gapped[i]);
+        sources.push_back(gapped[half + i]);
+      }
+      for (const Source& src : sources)
+        std::fprintf(stderr, "gap source %s: master %d x %d, secondary %d x %d\n", src.name.c_str(), src.master.width(),
+                     src.master.height(), src.secondary.width(), src.secondary.height());
+    }
     std::vector<Config> configs;
     std::stringstream ss(configs_text);
     for (std::string c; std::getline(ss, c, ',');) configs.push_back(parse_config(c));
@@ -250,7 +295,11 @@ int main(int argc, char** argv) {
         case_options.crop_windows = src.crop;
         c = make_coregistration_case(src.master, src.secondary, case_options, seed + k);
       }
-      const double cell = c.secondary.min_cell_size();
+      // Success is judged in secondary cells; with a resolution gap, in cells of the coarser DSM
+      // (the master's cell brought to world units by the frame's scale): a match is no more precise
+      // than the coarser image, and 2 fine cells of a 2 m DSM are a fifth of a 10 m cell.
+      const double cell = gaps.empty() ? c.secondary.min_cell_size()
+                                       : std::max(c.secondary.min_cell_size(), c.master.min_cell_size() / c.scale);
       for (auto& config : configs) {
         config.options.threads = threads;
         config.options.ransac_2d.seed = seed + k;
@@ -275,11 +324,17 @@ int main(int argc, char** argv) {
         auto& ps = per_source[config.name][source_name];
         ps.first += o.success;
         ps.second += 1;
-        if (verbose)
+        if (verbose) {
+          std::string hyps;
+          for (const auto& h : r.scale_hypotheses)
+            hyps += " " + h.hypothesis.name() + ":" + std::to_string(h.inliers) + "/" + std::to_string(h.required_inliers) +
+                    (h.success ? "+" : "") + "@" + std::to_string(h.seconds).substr(0, 4) + "s";
+          std::fprintf(stderr, "  scale hypotheses (inliers/required@time):%s\n", hyps.c_str());
           std::fprintf(stderr, "case %zu %-13s overlap %.2f rot %6.1f scale %.2f | %-32s %s err %8.2f cells, %4zu/%5zu in %.1f s | rms3d %.2f cells, 3D inliers %zu/%zu, trust %s | %s\n",
                        k, source_name.c_str(), c.overlap, c.rotation_deg, c.scale, config.name.c_str(),
                        o.success ? "OK  " : "FAIL", o.error_cells, o.inliers, o.matches, o.seconds, r.rms_3d_cells,
                        r.inliers_3d.size(), r.lifted.size(), to_string(r.trust), r.message.c_str());
+        }
       }
     }
     std::printf("| configuration | success | per source | median 2D inliers | median inlier ratio | median time (s) |\n");

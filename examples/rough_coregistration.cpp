@@ -43,6 +43,7 @@ const char* kUsage =
     "                                        master tile's core only)\n"
     "  --no-tiling                           match the whole DSM images\n"
     "  --no-rotations                        try 0 degrees only\n"
+    "  --no-scales                           no scale hypotheses (coarsened DSMs for resolution gaps)\n"
     "  --threshold PX                        2D RANSAC threshold, DSM pixels (default 10)\n"
     "  --threads N                           worker threads, 0 = all cores (default 0)\n"
     "  --seed S                              random seed (default 0)\n"
@@ -74,6 +75,15 @@ void write_report(const std::string& path, const RoughCoregistrationReport& r, c
     const auto& h = r.hypotheses[i];
     out << (i ? ", " : "") << "{\"rotation_deg\": " << h.rotation_deg << ", \"matches\": " << h.matches
         << ", \"inliers\": " << h.inliers << ", \"iterations\": " << h.iterations << "}";
+  }
+  out << "],\n  \"best_scale_hypothesis\": " << r.best_scale_hypothesis << ",\n  \"scale_hypotheses\": [";
+  for (std::size_t i = 0; i < r.scale_hypotheses.size(); ++i) {
+    const auto& h = r.scale_hypotheses[i];
+    out << (i ? ", " : "") << "{\"name\": " << quoted(h.hypothesis.name())
+        << ", \"master_factor\": " << h.hypothesis.master_factor()
+        << ", \"secondary_factor\": " << h.hypothesis.secondary_factor() << ", \"success\": "
+        << (h.success ? "true" : "false") << ", \"matches\": " << h.matches << ", \"inliers\": " << h.inliers
+        << ", \"required_inliers\": " << h.required_inliers << ", \"seconds\": " << h.seconds << "}";
   }
   out << "],\n  \"stages\": {\"tentative_2d\": " << r.matches_2d << ", \"required_inliers_2d\": " << r.required_inliers_2d
       << ", \"inliers_2d\": " << r.inliers_2d.size() << ", \"lifted_3d\": " << r.lifted.size()
@@ -123,6 +133,7 @@ int main(int argc, char** argv) {
         options.master_tiles.buffer_y = options.secondary_tiles.buffer_y = std::stoi(b.substr(x + 1));
       } else if (a == "--no-tiling") options.use_tiling = false;
       else if (a == "--no-rotations") options.rotation_hypotheses = false;
+      else if (a == "--no-scales") options.scale_hypotheses.enabled = false;
       else if (a == "--threshold") options.ransac_2d.threshold = std::stod(value());
       else if (a == "--threads") options.threads = std::stoul(value());
       else if (a == "--seed") options.ransac_2d.seed = std::stoull(value());
@@ -170,8 +181,20 @@ int main(int argc, char** argv) {
     write_report(out_dir + "/report.json", report, matcher_name);
     std::vector<bool> mask(report.tentative_2d.size(), false);
     for (std::size_t i : report.inlier_indices_2d) mask[i] = true;
+    // The winner's pixels are those of its (possibly coarsened) images: coarse pixel i is centred on
+    // full-resolution pixel f i + (f - 1) / 2.
+    PointMatches drawn = report.tentative_2d;
+    const double fm = report.master_image_factor, fs = report.secondary_image_factor;
+    for (PointMatch& m : drawn) {
+      m.a = fm * m.a + Eigen::Vector2d::Constant(0.5 * (fm - 1.0));
+      m.b = fs * m.b + Eigen::Vector2d::Constant(0.5 * (fs - 1.0));
+    }
     write_matches_png(out_dir + "/matches.png", make_dsm_image(master, options), make_dsm_image(secondary, options),
-                      report.tentative_2d, mask);
+                      drawn, mask);
+    for (const auto& h : report.scale_hypotheses)
+      std::printf("scale %-4s (master %4d x %4d, secondary %4d x %4d): %5zu matches, %5zu inliers, %zu needed, %.2f s%s\n",
+                  h.hypothesis.name().c_str(), h.master_width, h.master_height, h.secondary_width, h.secondary_height,
+                  h.matches, h.inliers, h.required_inliers, h.seconds, h.success ? ", success" : "");
     for (const auto& h : report.hypotheses)
       std::printf("rotation %3d deg: %5zu matches, %5zu inliers\n", h.rotation_deg, h.matches, h.inliers);
     std::printf("%s\n", report.message.c_str());

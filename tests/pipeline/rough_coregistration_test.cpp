@@ -195,6 +195,7 @@ TEST_CASE("rough_coregistration: a masked matcher receives the DSM validity erod
       },
       true);
   diachron::RoughCoregistrationOptions options;
+  options.scale_hypotheses.enabled = false;  // one call at the DSM's own resolution: its masks
   const auto report = diachron::rough_coregistration(dsm, dsm, recording, options);
   REQUIRE_FALSE(report.success);  // no matches
   REQUIRE(report.hypotheses.size() == 1);  // the flag of make_pair_matcher was heard
@@ -353,7 +354,88 @@ TEST_CASE("rough_coregistration: masks reach a FeaturePairMatcher whose extracto
   STATIC_REQUIRE(diachron::detail::pipeline_matcher<Sift>::masks);
   const diachron::Dsm dsm = world_with_hole();
   const MaskedImageMatcher matcher;
-  diachron::rough_coregistration(dsm, dsm, matcher);
+  diachron::RoughCoregistrationOptions options;
+  options.scale_hypotheses.enabled = false;  // no match: scale hypotheses would call it again
+  diachron::rough_coregistration(dsm, dsm, matcher, options);
   CHECK(matcher.masked_calls->load() == 1);
   CHECK(matcher.plain_calls->load() == 0);
+}
+
+TEST_CASE("rough_coregistration: a 4x resolution gap needs the scale hypotheses", "[pipeline]") {
+  // The master is the terrain at 20 m (4 x 4 blocks of the 5 m grid averaged), the secondary the
+  // same terrain at 5 m; each whole, the master moved into a frame of unknown scale. The DSM images
+  // differ in scale by 4 x the frame's cell jitter, and the 5 m slope image shows detail the 20 m
+  // one never had.
+  // Fine relief (bumps of 1-3 cells) on top of the hills: what a fine DSM shows and a coarse one
+  // averages away, as a 2 m lidar DSM shows boulders and gullies a 10 m photogrammetric DSM misses.
+  const diachron::Dsm hills = synthetic_world();
+  diachron::Raster<float> z = hills.heights();
+  diachron::RandomStream rng(23);
+  const double amplitude = 8.0;  // m; at 2 and 4 m SIFT still matched the 5 m image to the 20 m one
+  for (int i = 0; i < z.width() * z.height() / 12; ++i) {
+    const double bx = rng.uniform(0, z.width()), by = rng.uniform(0, z.height()), r = rng.uniform(1.0, 3.0);
+    const double a = rng.uniform(-amplitude, amplitude);
+    for (int y = std::max(0, int(by - 3 * r)); y < std::min(z.height(), int(by + 3 * r) + 1); ++y)
+      for (int x = std::max(0, int(bx - 3 * r)); x < std::min(z.width(), int(bx + 3 * r) + 1); ++x)
+        z(x, y) += static_cast<float>(a * std::exp(-((x - bx) * (x - bx) + (y - by) * (y - by)) / (r * r)));
+  }
+  const diachron::Dsm world(std::move(z), hills.transform(), hills.crs());
+  diachron::CoregistrationCaseOptions case_options;
+  case_options.crop_windows = false;
+  const auto c = diachron::make_coregistration_case(diachron::coarsen_dsm(world, 4), world, case_options, 5);
+  diachron::RoughCoregistrationOptions without;
+  without.scale_hypotheses.enabled = false;
+  const auto failed = diachron::rough_coregistration(c.master, c.secondary, sift_matcher(), without);
+  INFO("without: " << failed.message);
+  CHECK_FALSE(failed.success);
+  REQUIRE(failed.scale_hypotheses.size() == 1);
+
+  const auto report = diachron::rough_coregistration(c.master, c.secondary, sift_matcher());
+  INFO("with: " << report.message);
+  REQUIRE(report.success);
+  const auto err = diachron::helmert_error_on_overlap(report.epoch2_from_epoch1, c);
+  REQUIRE(err.valid);
+  // Within 2 cells of the coarser DSM (20 m): no match is more precise than its image.
+  CHECK(err.rms < 2.0 * 4.0 * world.min_cell_size());
+  // The DSMs as given came first and failed; the winner coarsened the secondary (more valid cells).
+  REQUIRE(report.scale_hypotheses.size() >= 2);
+  CHECK_FALSE(report.scale_hypotheses.front().success);
+  REQUIRE(report.best_scale_hypothesis > 0);
+  const auto& winner = report.scale_hypotheses[static_cast<std::size_t>(report.best_scale_hypothesis)];
+  CHECK(winner.success);
+  CHECK(winner.hypothesis.master_level == 0);
+  CHECK(winner.hypothesis.secondary_level >= 1);
+  CHECK(report.secondary_image_factor == winner.hypothesis.secondary_factor());
+  CHECK(winner.inliers >= winner.required_inliers);
+  CHECK(winner.secondary_width == (world.width() + winner.hypothesis.secondary_factor() - 1) /
+                                      winner.hypothesis.secondary_factor());
+  for (const auto& h : report.scale_hypotheses) CHECK(h.seconds >= 0.0);
+}
+
+TEST_CASE("scale hypotheses: the plan, and coarsen_dsm keeps the ground", "[pipeline]") {
+  diachron::ScaleHypothesesOptions options;
+  // The secondary has more valid cells: its levels first, then the master's; 48-cell floor.
+  const auto plan = diachron::plan_scale_hypotheses(100, 120, 10000, 400, 480, 190000, options);
+  REQUIRE(plan.size() == 5);  // 1, s/2, s/4, s/8 (400 / 8 = 50 >= 48), m/2 (100 / 4 < 48 stops there)
+  CHECK(plan[0].name() == "1");
+  CHECK(plan[1].name() == "s/2");
+  CHECK(plan[3].name() == "s/8");
+  CHECK(plan[4].name() == "m/2");
+  options.enabled = false;
+  CHECK(diachron::plan_scale_hypotheses(100, 120, 10000, 400, 480, 190000, options).size() == 1);
+  options.max_level = 9;
+  CHECK_THROWS_AS(options.check(), diachron::Error);
+
+  const diachron::Dsm world = synthetic_world(40, 30);
+  const diachron::Dsm coarse = diachron::coarsen_dsm(world, 4);
+  REQUIRE(coarse.width() == 10);
+  REQUIRE(coarse.height() == 8);  // 30 / 4 rounded up: a partial last block
+  CHECK(coarse.min_cell_size() == Approx(20.0));
+  // Cell (1, 1) is the mean of the 5 m cells 4..7 x 4..7, centred where their centres' mean is.
+  double mean = 0.0;
+  for (int y = 4; y < 8; ++y)
+    for (int x = 4; x < 8; ++x) mean += world.heights()(x, y) / 16.0;
+  CHECK(coarse.heights()(1, 1) == Approx(mean).epsilon(1e-6));
+  const Eigen::Vector2d centre = world.pixel_to_world({5.5, 5.5});
+  CHECK((coarse.pixel_to_world({1.0, 1.0}) - centre).norm() < 1e-6);
 }

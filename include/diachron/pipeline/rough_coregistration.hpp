@@ -1,7 +1,8 @@
 #pragma once
 /// @file
 /// Rough co-registration of two epochs from their DSMs (paper section 3.2.1): DSM images ->
-/// quarter-turn rotation hypotheses x one-to-many tiling with any PairMatcher -> 2D similarity
+/// scale hypotheses (one DSM coarsened 2, 4, 8 times, for resolution gaps) x quarter-turn rotation
+/// hypotheses x one-to-many tiling with any PairMatcher -> 2D similarity
 /// RANSAC -> lift the inliers to 3D through both DSMs -> 3D Helmert (least squares, 3D RANSAC guard).
 ///
 /// Generic in the PairMatcher; every stage is a component of its own (terrain/dsm_image.hpp,
@@ -14,6 +15,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <limits>
+#include <optional>
 #include <string>
 #include <type_traits>
 #include <utility>
@@ -31,6 +33,7 @@
 #include <diachron/geometry/similarity2.hpp>
 #include <diachron/matching/point_match.hpp>
 #include <diachron/matching/rotation_hypotheses.hpp>
+#include <diachron/matching/scale_hypotheses.hpp>
 #include <diachron/robust/chance_inliers.hpp>
 #include <diachron/robust/robust_estimation.hpp>
 #include <diachron/terrain/dsm.hpp>
@@ -107,6 +110,15 @@ struct RoughCoregistrationOptions {
   /// times the cost (docs/rough-coregistration.md). Matchers that do not say are treated as variant.
   bool skip_rotations_if_invariant = true;
 
+  /// Scale hypotheses (rough_coregistration() only, not the image mode): when the DSMs as given
+  /// give no significant result, the DSM with more valid cells, then the other, is coarsened 2, 4
+  /// and 8 times (block means) and matched again; the first significant hypothesis wins. For
+  /// resolution gaps (a 10 m historical DSM against a 2 m modern one): measured in
+  /// docs/rough-coregistration.md, a 4 to 8 times gap failed without them. DSMs without a gap
+  /// succeed at the first hypothesis and cost nothing more; failures cost every hypothesis (each
+  /// level about a quarter of the one before, the unchanged DSM's features extracted once).
+  ScaleHypothesesOptions scale_hypotheses{};
+
   /// 2D similarity RANSAC on DSM-image pixels: 10 px and 1000 iterations as the paper and MicMac.
   /// The seed is also the pipeline's seed.
   RansacOptions ransac_2d = [] {
@@ -150,6 +162,7 @@ struct RoughCoregistrationOptions {
   void check() const {
     dsm_image.check();
     ransac_2d.check();
+    scale_hypotheses.check();
     DIACHRON_CHECK(ransac_3d_threshold_cells > 0.0 && std::isfinite(ransac_3d_threshold_cells),
                    "ransac_3d_threshold_cells must be positive, got " << ransac_3d_threshold_cells);
     DIACHRON_CHECK(alpha > 0.0 && alpha < 1.0, "alpha must be in (0, 1), got " << alpha);
@@ -172,7 +185,8 @@ struct GeoImage {
   Raster<std::uint8_t> mask{};
 };
 
-/// Wall-clock seconds per stage.
+/// Wall-clock seconds per stage. With scale hypotheses, the stages are the chosen hypothesis',
+/// `images` covers every DSM image made and `total` every hypothesis (see ScaleHypothesisResult).
 struct RoughCoregistrationTimings {
   double images = 0.0;    ///< DSM images (stretch, Wallis or hillshade)
   double matching = 0.0;  ///< tiling + pair matcher, all hypotheses
@@ -199,6 +213,19 @@ inline const char* to_string(RoughCoregistrationTrust trust) {
   return "?";
 }
 
+/// The outcome of one scale hypothesis of rough_coregistration().
+struct ScaleHypothesisResult {
+  ScaleHypothesis hypothesis;  ///< which DSM was coarsened, and how much
+  int master_width = 0, master_height = 0;        ///< the master image matched, pixels
+  int secondary_width = 0, secondary_height = 0;  ///< the secondary image matched, pixels
+  bool success = false;        ///< this hypothesis alone gave a co-registration
+  std::size_t matches = 0;     ///< tentative matches of its best rotation
+  std::size_t inliers = 0;     ///< 2D inliers of its best rotation
+  std::size_t required_inliers = 0;  ///< its significance bound (0 when no rotation gave a model)
+  double seconds = 0.0;        ///< wall-clock time of the hypothesis (images, matching, RANSAC, Helmert)
+  std::string message;         ///< the pipeline's message for this hypothesis
+};
+
 /// What rough_coregistration() found. Defaults mean failure.
 struct RoughCoregistrationReport {
   bool success = false;
@@ -214,6 +241,14 @@ struct RoughCoregistrationReport {
   /// Per hypothesis (rotation of the secondary image, clockwise degrees): matches and 2D inliers.
   std::vector<RotationHypothesisResult> hypotheses;
   int best_rotation_deg = -1;  ///< winning quarter-turn, -1 when none won
+
+  /// Per scale hypothesis tried, in order (rough_coregistration() only; empty in the image mode).
+  /// The fields above and below describe the chosen hypothesis, whose images may be coarsened:
+  /// image pixels (image_similarity, tentative_2d, inliers_2d) are pixels of those images.
+  std::vector<ScaleHypothesisResult> scale_hypotheses;
+  int best_scale_hypothesis = -1;  ///< index into scale_hypotheses of the chosen one, -1 when none
+  int master_image_factor = 1;     ///< the chosen master image's cell / the master DSM's cell
+  int secondary_image_factor = 1;  ///< the same for the secondary
 
   std::size_t tile_pairs = 0;          ///< tile pairs matched per hypothesis
   std::size_t matches_2d = 0;          ///< tentative matches of the winner
@@ -254,7 +289,9 @@ RoughCoregistrationReport rough_coregistration_images(const GeoImage& master, co
                                                       const RoughCoregistrationOptions& options = {});
 
 /// Rough co-registration of two DSMs (paper 3.2.1): the DSM images are made with
-/// make_dsm_image(), then rough_coregistration_images() runs on them.
+/// make_dsm_image(), then rough_coregistration_images() runs on them; with scale hypotheses
+/// (options.scale_hypotheses) again on coarsened DSMs until one is significant. Matches are lifted
+/// through the DSMs as given, whatever the hypothesis.
 template <class Matcher>
 RoughCoregistrationReport rough_coregistration(const Dsm& master, const Dsm& secondary, const Matcher& matcher,
                                                const RoughCoregistrationOptions& options = {});
@@ -359,17 +396,23 @@ inline bool away_from_holes(const GeoImage& image, const Dsm& dsm, const Raster<
   return distance(x, y) >= min_distance;
 }
 
-}  // namespace detail
-
+/// rough_coregistration_images() with two more inputs, for the scale hypotheses: the DSMs whose
+/// holes mask the images (`*_hole_dsm`: the coarsened DSM an image was made from, so the hole rims
+/// are those the image shows) may differ from the DSMs that lift the matches (`*_dsm`: as given, the
+/// most precise heights); and the significance test counts `searches` independent searches (the
+/// planned scale hypotheses), so that trying more hypotheses does not make chance look significant.
 template <class Matcher>
-RoughCoregistrationReport rough_coregistration_images(const GeoImage& master, const Dsm& master_dsm,
-                                                      const GeoImage& secondary, const Dsm& secondary_dsm,
-                                                      const Matcher& matcher,
-                                                      const RoughCoregistrationOptions& options) {
+RoughCoregistrationReport rough_coregistration_images_impl(const GeoImage& master, const Dsm& master_dsm,
+                                                           const Dsm& master_hole_dsm, const GeoImage& secondary,
+                                                           const Dsm& secondary_dsm, const Dsm& secondary_hole_dsm,
+                                                           const Matcher& matcher,
+                                                           const RoughCoregistrationOptions& options,
+                                                           double searches) {
   static_assert(check_pair_matcher<Matcher>());
   options.check();
   DIACHRON_CHECK(!master.image.empty() && !secondary.image.empty(), "rough co-registration needs two non-empty images");
   DIACHRON_CHECK(!master_dsm.empty() && !secondary_dsm.empty(), "rough co-registration needs two non-empty DSMs");
+  DIACHRON_CHECK(searches >= 1.0, "searches must be >= 1, got " << searches);
   const auto start = std::chrono::steady_clock::now();
   RoughCoregistrationReport report;
 
@@ -388,15 +431,15 @@ RoughCoregistrationReport rough_coregistration_images(const GeoImage& master, co
     else
       return 0;
   }();
-  const Raster<float> master_holes = detail::distance_to_holes(master_dsm);
-  const Raster<float> secondary_holes = detail::distance_to_holes(secondary_dsm);
+  const Raster<float> master_holes = detail::distance_to_holes(master_hole_dsm);
+  const Raster<float> secondary_holes = detail::distance_to_holes(secondary_hole_dsm);
   // Masks only for matchers that take them (see detail::pipeline_matcher).
   const bool use_masks = detail::pipeline_matcher<Matcher>::masks && options.pass_masks;
   const Raster<std::uint8_t> master_mask =
-      use_masks ? detail::matching_mask(master, master_dsm, master_holes, options.min_hole_distance_px)
+      use_masks ? detail::matching_mask(master, master_hole_dsm, master_holes, options.min_hole_distance_px)
                 : Raster<std::uint8_t>();
   const Raster<std::uint8_t> secondary_mask =
-      use_masks ? detail::matching_mask(secondary, secondary_dsm, secondary_holes, options.min_hole_distance_px)
+      use_masks ? detail::matching_mask(secondary, secondary_hole_dsm, secondary_holes, options.min_hole_distance_px)
                 : Raster<std::uint8_t>();
   auto match_fn = [&](const Raster<std::uint8_t>& m, const Raster<std::uint8_t>& s, int rotation_deg) {
     OneToManyOptions one_to_many;
@@ -421,8 +464,8 @@ RoughCoregistrationReport rough_coregistration_images(const GeoImage& master, co
     for (const PointMatch& match : r.matches) {
       const Eigen::Vector2d b = unrotate_point_quarter_turns(match.b, quarter_turns, secondary.image.width(),
                                                              secondary.image.height());
-      if (detail::away_from_holes(master, master_dsm, master_holes, match.a, options.min_hole_distance_px) &&
-          detail::away_from_holes(secondary, secondary_dsm, secondary_holes, b, options.min_hole_distance_px))
+      if (detail::away_from_holes(master, master_hole_dsm, master_holes, match.a, options.min_hole_distance_px) &&
+          detail::away_from_holes(secondary, secondary_hole_dsm, secondary_holes, b, options.min_hole_distance_px))
         kept.push_back(match);
     }
     return kept;
@@ -458,8 +501,8 @@ RoughCoregistrationReport rough_coregistration_images(const GeoImage& master, co
   for (const auto& h : report.hypotheses) scored += std::max<std::size_t>(h.iterations, 1);
   report.required_inliers_2d =
       std::max(options.min_inliers_2d,
-               min_significant_inliers(report.matches_2d, p_chance, static_cast<double>(std::max<std::size_t>(scored, 1)),
-                                       options.alpha, 2));
+               min_significant_inliers(report.matches_2d, p_chance,
+                                       searches * static_cast<double>(std::max<std::size_t>(scored, 1)), options.alpha, 2));
   report.inliers_2d = hyp.inlier_matches;
   if (report.inliers_2d.size() < report.required_inliers_2d) {
     report.message = "the best rotation hypothesis has " + std::to_string(report.inliers_2d.size()) +
@@ -544,6 +587,17 @@ RoughCoregistrationReport rough_coregistration_images(const GeoImage& master, co
   return report;
 }
 
+}  // namespace detail
+
+template <class Matcher>
+RoughCoregistrationReport rough_coregistration_images(const GeoImage& master, const Dsm& master_dsm,
+                                                      const GeoImage& secondary, const Dsm& secondary_dsm,
+                                                      const Matcher& matcher,
+                                                      const RoughCoregistrationOptions& options) {
+  return detail::rough_coregistration_images_impl(master, master_dsm, master_dsm, secondary, secondary_dsm,
+                                                  secondary_dsm, matcher, options, 1.0);
+}
+
 template <class Matcher>
 RoughCoregistrationReport rough_coregistration(const Dsm& master, const Dsm& secondary, const Matcher& matcher,
                                                const RoughCoregistrationOptions& options) {
@@ -556,13 +610,88 @@ RoughCoregistrationReport rough_coregistration(const Dsm& master, const Dsm& sec
                      " DSM has no valid height";
     return report;
   }
-  const GeoImage master_image{make_dsm_image(master, options), master.transform()};
-  const GeoImage secondary_image{make_dsm_image(secondary, options), secondary.transform()};
-  const double image_seconds = detail::seconds_since(start);
-  RoughCoregistrationReport report =
-      rough_coregistration_images(master_image, master, secondary_image, secondary, matcher, options);
-  report.seconds.images = image_seconds;
-  report.seconds.total += image_seconds;
+  const std::vector<ScaleHypothesis> plan = plan_scale_hypotheses(
+      master.width(), master.height(), master.statistics().count, secondary.width(), secondary.height(),
+      secondary.statistics().count, options.scale_hypotheses);
+  // One feature cache for every hypothesis: the DSM a hypothesis leaves unchanged gives the same
+  // images, whose features are then extracted once (the cache is keyed on image content).
+  auto run = [&](const auto& effective_matcher) {
+    RoughCoregistrationReport best;
+    best.message = "no scale hypothesis was tried";
+    std::vector<ScaleHypothesisResult> results;
+    double images_seconds = 0.0;
+    std::size_t best_index = plan.size();
+    // The coarsened DSMs and their images, per side and level, made once.
+    std::vector<std::optional<std::pair<Dsm, GeoImage>>> master_levels(8), secondary_levels(8);
+    auto level = [&](const Dsm& dsm, int k, std::vector<std::optional<std::pair<Dsm, GeoImage>>>& cache)
+        -> const std::pair<Dsm, GeoImage>& {
+      auto& slot = cache[static_cast<std::size_t>(k)];
+      if (!slot) {
+        Dsm coarse = coarsen_dsm(dsm, 1 << k);
+        GeoImage image{make_dsm_image(coarse, options), coarse.transform()};
+        slot.emplace(std::move(coarse), std::move(image));
+      }
+      return *slot;
+    };
+    for (std::size_t i = 0; i < plan.size(); ++i) {
+      const ScaleHypothesis& h = plan[i];
+      const auto t0 = std::chrono::steady_clock::now();
+      const auto& m = level(master, h.master_level, master_levels);
+      const auto& s = level(secondary, h.secondary_level, secondary_levels);
+      const double image_seconds = detail::seconds_since(t0);
+      images_seconds += image_seconds;
+      RoughCoregistrationReport r = detail::rough_coregistration_images_impl(
+          m.second, master, m.first, s.second, secondary, s.first, effective_matcher, options,
+          static_cast<double>(plan.size()));
+      ScaleHypothesisResult result;
+      result.hypothesis = h;
+      result.master_width = m.second.image.width();
+      result.master_height = m.second.image.height();
+      result.secondary_width = s.second.image.width();
+      result.secondary_height = s.second.image.height();
+      result.success = r.success;
+      result.matches = r.matches_2d;
+      result.inliers = r.inliers_2d.size();
+      result.required_inliers = r.required_inliers_2d;
+      result.seconds = detail::seconds_since(t0);
+      result.message = r.message;
+      results.push_back(result);
+      r.master_image_factor = h.master_factor();
+      r.secondary_image_factor = h.secondary_factor();
+      // The winner: a success before any failure; among successes (or failures), the largest
+      // margin over the significance bound, in inliers; ties go to the earlier hypothesis.
+      const auto margin = [](const RoughCoregistrationReport& x) {
+        return static_cast<double>(x.inliers_2d.size()) - static_cast<double>(x.required_inliers_2d);
+      };
+      const bool better = best_index == plan.size() || (r.success && !best.success) ||
+                          (r.success == best.success && margin(r) > margin(best));
+      if (better) {
+        best = std::move(r);
+        best_index = i;
+      }
+      if (best.success && options.scale_hypotheses.stop_at_first_success) break;
+    }
+    best.scale_hypotheses = std::move(results);
+    best.best_scale_hypothesis = best.success ? static_cast<int>(best_index) : -1;
+    if (!best.success) {
+      best.master_image_factor = best.secondary_image_factor = 1;
+      if (best.scale_hypotheses.size() > 1)
+        best.message = "no scale hypothesis succeeded (" + std::to_string(best.scale_hypotheses.size()) +
+                       " tried); the closest: " + best.message;
+    }
+    // Stage times are the chosen hypothesis'; `images` counts every DSM image made, and `total`
+    // (set by the caller) every hypothesis tried.
+    best.seconds.images = images_seconds;
+    return best;
+  };
+  RoughCoregistrationReport report;
+  if constexpr (detail::pipeline_matcher<Matcher>::cache) {
+    const FeatureCacheMatcher<Matcher> cached(matcher);
+    report = run(cached);
+  } else {
+    report = run(matcher);
+  }
+  report.seconds.total = detail::seconds_since(start);
   return report;
 }
 

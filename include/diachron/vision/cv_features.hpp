@@ -9,7 +9,10 @@
 /// 360 - peak, AKAZE takes atan2 of the y-down gradient directly. That is diachron's convention, so
 /// the conversion is a plain degrees-to-radians with wrap-around into [0, 2 pi); the tests check it
 /// by rotating an image by 90 degrees. Positions: KeyPoint::pt has (0, 0) at the centre of the
-/// top-left pixel for these detectors, as diachron, so positions are copied unchanged.
+/// top-left pixel for these detectors, as diachron, so to_keypoint copies positions unchanged. One
+/// exception is corrected by its adapter: OpenCV's SIFT reports keypoints 0.25 px right and down
+/// (SiftOptions::correct_upscale_offset in sift.hpp); AKAZE's are unbiased
+/// (tests/vision/localisation_bias_test.cpp measures both).
 
 #include <algorithm>
 #include <cmath>
