@@ -2,8 +2,10 @@
 // kind, scored with the truth (docs/one-to-one-tiling.md).
 //
 //   one_to_one_eval [--seeds N] [--first-seed S] [--max-pairs N] [--max-features N] [--threads N]
-//                   [--layouts precise,small]
+//                   [--layouts precise,small] [--plain]
 //
+// --plain runs the plain SceneOptions{} (no decades effects) instead, as a check that the tiling
+// finds correct matches when the images allow it.
 // For every seed of SceneOptions::decades_apart(): the overlapping epoch-1 x epoch-2 image pairs
 // from overlapping_pairs() (estimated frames, the epochs' SfM DSMs, the true Helmert), the
 // --max-pairs largest overlaps kept. For each pair the DsmTransfer is built from the *estimated*
@@ -46,12 +48,13 @@ struct Arguments {
   int max_features = 4000;
   std::size_t threads = 0;
   std::vector<std::string> layouts = {"precise", "small"};
+  bool plain = false;  // the plain SceneOptions{} (every effect off): a sanity check that matching works
 };
 
 [[noreturn]] void usage(const std::string& message) {
   std::fprintf(stderr,
                "one_to_one_eval: %s\nusage: one_to_one_eval [--seeds N] [--first-seed S] [--max-pairs N] "
-               "[--max-features N] [--threads N] [--layouts precise,small]\n",
+               "[--max-features N] [--threads N] [--layouts precise,small] [--plain]\n",
                message.c_str());
   std::exit(1);
 }
@@ -60,6 +63,10 @@ Arguments parse(int argc, char** argv) {
   Arguments a;
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
+    if (arg == "--plain") {
+      a.plain = true;
+      continue;
+    }
     if (i + 1 >= argc) usage("missing value for " + arg);
     const std::string v = argv[++i];
     try {
@@ -154,7 +161,7 @@ int main(int argc, char** argv) {
     std::vector<double> generation_seconds;
     std::size_t footprints_invalid = 0, candidate_pairs = 0, overlapping = 0;
     for (int s = 0; s < args.seeds; ++s) {
-      SceneOptions options = SceneOptions::decades_apart();
+      SceneOptions options = args.plain ? SceneOptions{} : SceneOptions::decades_apart();
       options.seed = args.first_seed + static_cast<std::uint64_t>(s);
       options.threads = args.threads;
       const auto t0 = std::chrono::steady_clock::now();
@@ -170,6 +177,9 @@ int main(int argc, char** argv) {
       for (std::size_t j = 0; j < e2.images.size(); ++j) s_images.push_back(make_footprint_image(e2.estimated_frame(j)));
       OverlappingPairsOptions pair_options;
       pair_options.min_overlap_fraction = 0.1;
+      // The SfM DSMs cover the multi-view part of each block only: an image at the block's edge
+      // sees much ground without DSM, and its footprint is the part over DSM.
+      pair_options.footprint.min_hit_fraction = 0.25;
       pair_options.threads = args.threads;
       const OverlappingPairsResult pairs = overlapping_pairs(m_images, e1.dsm, s_images, e2.dsm, helmert, pair_options);
       footprints_invalid += pairs.invalid_master_footprints + pairs.invalid_secondary_footprints;
