@@ -197,14 +197,26 @@ TEST_CASE("image_footprint: an image with no DSM under it is invalid, with the r
   CHECK_FALSE(f.valid);
   CHECK(f.hits == 0u);
   CHECK(f.misses == f.rays);
-  CHECK(f.reason.find("0 of 36 boundary rays hit the DSM") != std::string::npos);
-  // A DSM under the western third only: fewer than half the rays hit.
+  CHECK(f.reason.find("no valid cell under the image") != std::string::npos);
+  diachron::FootprintOptions strict;
+  strict.plane_fallback = false;
+  const diachron::Footprint f_strict = diachron::image_footprint(image, far_dsm, strict);
+  CHECK_FALSE(f_strict.valid);
+  CHECK(f_strict.reason.find("0 of 36 boundary rays hit the DSM") != std::string::npos);
+  // A DSM under the western third only: without the fallback fewer than half the rays hit and the
+  // footprint is invalid; with it, the missing rays land on the plane at the hits' mean height and
+  // the footprint is the whole image's.
   const Dsm partial = plane_dsm(Plane{}, -1000.0, 2000.0, 400);  // X in [-1000, -200]
   const auto west = image_at(Vector3d(-100.0, 1500.0, 1010.0));
-  const diachron::Footprint g = diachron::image_footprint(west, partial);
+  const diachron::Footprint g = diachron::image_footprint(west, partial, strict);
   CHECK_FALSE(g.valid);
   CHECK(g.hits > 0u);
   CHECK(g.hits < g.rays / 2);
+  const diachron::Footprint h = diachron::image_footprint(west, partial);
+  CHECK(h.valid);
+  CHECK(h.hits == g.hits);
+  CHECK(h.plane_hits == h.rays - h.hits);
+  CHECK(h.polygon.size() == h.rays);
   // Invalid options name the field.
   diachron::FootprintOptions bad;
   bad.samples_per_edge = -1;

@@ -32,6 +32,7 @@
 #include <diachron/core/parallel.hpp>
 #include <diachron/geometry/ray.hpp>
 #include <diachron/terrain/dsm.hpp>
+#include <diachron/terrain/gsd.hpp>  // detail::ray_plane_z
 #include <diachron/terrain/ray_dsm_intersection.hpp>
 #include <diachron/terrain/transfer.hpp>
 
@@ -266,8 +267,15 @@ struct FootprintOptions {
   int samples_per_edge = 8;
   /// The footprint is valid only when at least this fraction (0..1] of the rays hit the DSM (and at
   /// least 3 do). The rays that miss are left out of the polygon, which then cuts across the part
-  /// of the image over missing DSM. 0.5 by default.
+  /// of the image over missing DSM. 0.5 by default. Not used with `plane_fallback`.
   double min_hit_fraction = 0.5;
+  /// A boundary ray that misses the DSM meets the horizontal plane at the mean height of the DSM
+  /// points the image's rays did hit instead (MicMac's plane at AltiSol, but only where the DSM has
+  /// no answer). An SfM DSM covers the multi-view part of a block only, so the rays of its outer
+  /// images' edges often miss it: without the fallback those images have no footprint at all. The
+  /// footprint is then valid when any ray of the boundary or of a 5 x 5 interior grid meets the DSM,
+  /// and invalid (with the reason) when the DSM has no cell under the image. On by default.
+  bool plane_fallback = true;
   /// Options of the ray-DSM intersections.
   RayDsmOptions ray;
 
@@ -292,6 +300,7 @@ struct Footprint {
   std::size_t rays = 0;    ///< rays cast: 4 * (samples_per_edge + 1)
   std::size_t hits = 0;    ///< rays that met the DSM
   std::size_t misses = 0;  ///< rays that did not (or pixels the frame could not unproject)
+  std::size_t plane_hits = 0;  ///< of the misses, rays placed on the fallback plane (plane_fallback)
 };
 
 /// The footprint of `image` on `dsm`: pixels along the image boundary (the outer pixel edges,
@@ -314,33 +323,69 @@ Footprint image_footprint(const FootprintImage<Frame>& image, const Dsm& dsm, co
                                                   Eigen::Vector2d(x1, y1), Eigen::Vector2d(x0, y1)};
   const int steps = options.samples_per_edge + 1;
   Footprint out;
-  Polygon2 points;
+  const auto usable = [](const std::optional<Ray3>& ray) {
+    return ray && ray->origin.allFinite() && ray->direction.allFinite() && ray->direction.squaredNorm() > 0.0;
+  };
+  // Every boundary ray, in boundary order; the DSM point where it has one.
+  std::vector<std::optional<Ray3>> rays;
+  std::vector<std::optional<Eigen::Vector3d>> ground;
+  double z_sum = 0.0;
+  std::size_t z_count = 0;
   for (int e = 0; e < 4; ++e) {
     const Eigen::Vector2d& a = corners[static_cast<std::size_t>(e)];
     const Eigen::Vector2d& b = corners[static_cast<std::size_t>((e + 1) % 4)];
     for (int k = 0; k < steps; ++k) {
       const Eigen::Vector2d px = a + (b - a) * (static_cast<double>(k) / steps);
       ++out.rays;
-      const std::optional<Ray3> ray = image.frame.ray(px);
-      if (!ray || !ray->origin.allFinite() || !ray->direction.allFinite() || ray->direction.squaredNorm() == 0.0) {
-        ++out.misses;
-        continue;
-      }
-      const RayDsmResult hit = intersect_ray_dsm(dsm, *ray, options.ray);
-      if (!hit.success) {
-        ++out.misses;
-        continue;
-      }
-      const Eigen::Vector3d moved = point_transform(hit.point);
-      if (!moved.allFinite()) {
-        ++out.misses;
-        continue;
-      }
-      ++out.hits;
-      points.push_back(moved.head<2>());
+      rays.push_back(image.frame.ray(px));
+      ground.emplace_back();
+      if (!usable(rays.back())) continue;
+      const RayDsmResult hit = intersect_ray_dsm(dsm, *rays.back(), options.ray);
+      if (!hit.success) continue;
+      ground.back() = hit.point;
+      z_sum += hit.point.z();
+      ++z_count;
     }
   }
-  if (out.hits < 3 || static_cast<double>(out.hits) < options.min_hit_fraction * static_cast<double>(out.rays)) {
+  if (options.plane_fallback) {
+    // The interior tells whether the DSM is under the image at all, and gives the plane's height
+    // when every boundary ray misses.
+    constexpr int kInterior = 5;
+    for (int j = 0; j < kInterior && z_count == 0; ++j)
+      for (int i = 0; i < kInterior; ++i) {
+        const Eigen::Vector2d px(x0 + (x1 - x0) * (i + 0.5) / kInterior, y0 + (y1 - y0) * (j + 0.5) / kInterior);
+        const std::optional<Ray3> ray = image.frame.ray(px);
+        if (!usable(ray)) continue;
+        const RayDsmResult hit = intersect_ray_dsm(dsm, *ray, options.ray);
+        if (!hit.success) continue;
+        z_sum += hit.point.z();
+        ++z_count;
+      }
+    if (z_count == 0) {
+      out.misses = out.rays;
+      out.reason = "the DSM has no valid cell under the image (none of " + std::to_string(out.rays) +
+                   " boundary rays and " + std::to_string(kInterior * kInterior) + " interior rays meets it)";
+      return out;
+    }
+  }
+  const double plane_z = z_count > 0 ? z_sum / static_cast<double>(z_count) : 0.0;
+  Polygon2 points;
+  for (std::size_t r = 0; r < rays.size(); ++r) {
+    std::optional<Eigen::Vector3d> p = ground[r];
+    if (!p && options.plane_fallback && usable(rays[r])) {
+      p = detail::ray_plane_z(*rays[r], plane_z);
+      if (p) ++out.plane_hits;
+    }
+    if (!ground[r]) ++out.misses;
+    if (!p) continue;
+    const Eigen::Vector3d moved = point_transform(*p);
+    if (!moved.allFinite()) continue;
+    if (ground[r]) ++out.hits;
+    points.push_back(moved.head<2>());
+  }
+  if (options.plane_fallback ? points.size() < 3
+                             : (out.hits < 3 ||
+                                static_cast<double>(out.hits) < options.min_hit_fraction * static_cast<double>(out.rays))) {
     std::ostringstream why;
     why << out.hits << " of " << out.rays << " boundary rays hit the DSM (at least "
         << std::max(3.0, std::ceil(options.min_hit_fraction * static_cast<double>(out.rays))) << " needed)";
