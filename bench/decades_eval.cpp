@@ -47,11 +47,16 @@
 #include <diachron/vision/sift.hpp>
 #include <diachron/vision/xfeat.hpp>
 
+#include "match_scoring.hpp"
+
 #ifndef DIACHRON_BENCH_MODELS_DIR
 #define DIACHRON_BENCH_MODELS_DIR ""
 #endif
 
 using namespace diachron;
+using diachron::bench::median;
+using diachron::bench::Scored;
+using diachron::bench::seconds_since;
 
 namespace {
 
@@ -122,17 +127,6 @@ Arguments parse(int argc, char** argv) {
   return a;
 }
 
-double seconds_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
-
-double median(std::vector<double> v) {
-  if (v.empty()) return std::nan("");
-  std::sort(v.begin(), v.end());
-  const std::size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
-
 /// An overlapping inter-epoch pair: epoch-1 image i, epoch-2 image j.
 struct ImagePair {
   int i = 0, j = 0;
@@ -157,30 +151,6 @@ std::vector<ImagePair> overlapping_pairs(const Scene& scene, const MatchTruthSco
     }
   return out;
 }
-
-/// Counts of a set of matches scored against the truth. A match whose epoch-1 point is off the
-/// epoch-2 image or hidden there is decidably wrong; one on a surface that changed between the
-/// epochs cannot be decided, and is left out of the shares (counted as unscorable).
-struct Scored {
-  std::size_t matches = 0, scored = 0;
-  std::size_t within[4] = {0, 0, 0, 0};  // 1, 3, 6, 10 px
-  static constexpr double kThresholds[4] = {1.0, 3.0, 6.0, 10.0};
-
-  void add(const MatchTruth& t) {
-    ++matches;
-    if (t.status == MatchTruthStatus::off_image || t.status == MatchTruthStatus::occluded) ++scored;
-    if (!t.scored()) return;
-    ++scored;
-    for (int k = 0; k < 4; ++k)
-      if (t.error_px < kThresholds[k]) ++within[k];
-  }
-  void add(const Scored& o) {
-    matches += o.matches;
-    scored += o.scored;
-    for (int k = 0; k < 4; ++k) within[k] += o.within[k];
-  }
-  double share(int k) const { return scored ? 100.0 * static_cast<double>(within[k]) / static_cast<double>(scored) : std::nan(""); }
-};
 
 /// What one method gave over all pairs of all seeds.
 struct MethodResult {

@@ -1,9 +1,11 @@
 #pragma once
 /// @file
 /// The Eigen-only part of diachron in one include: core, geometry, robust estimation, cameras,
-/// terrain, tiling, matching, the rough co-registration pipeline, evaluation and the synthetic scene
-/// generator. Needs Eigen, nanoflann and the standard library only (target diachron::core).
-/// The OpenCV adapters (diachron/vision/...), GDAL I/O (diachron/io/..., diachron/synth/scene_io.hpp)
+/// terrain, tiling, matching, validation, the rough co-registration and precise matching pipelines,
+/// evaluation and the synthetic scene generator. Needs Eigen, nanoflann and the standard library
+/// only (target diachron::core). The OpenCV adapters (diachron/vision/...) and the I/O
+/// (diachron/io/..., diachron/synth/scene_io.hpp; GDAL for GeoTIFFs and images, while
+/// io/colmap_text.hpp, io/homol.hpp and io/helmert_json.hpp need only the standard library and Eigen)
 /// are included separately, so that this header never pulls them.
 
 #include <diachron/core/error.hpp>
@@ -56,12 +58,19 @@
 #include <diachron/tiling/feature_cache_matcher.hpp>
 #include <diachron/tiling/grid_tiler.hpp>
 #include <diachron/tiling/one_to_many.hpp>
+#include <diachron/tiling/one_to_one.hpp>
 #include <diachron/tiling/pair_matcher.hpp>
+#include <diachron/tiling/patch_warp.hpp>
+#include <diachron/validation/ground_filter.hpp>
+#include <diachron/validation/match_filter.hpp>
+#include <diachron/validation/ncc_validator.hpp>
 #include <diachron/matching/descriptor_matching.hpp>
 #include <diachron/matching/features.hpp>
+#include <diachron/matching/guided_matcher.hpp>
 #include <diachron/matching/point_index_2d.hpp>
 #include <diachron/matching/point_match.hpp>
 #include <diachron/matching/rotation_hypotheses.hpp>
+#include <diachron/matching/scale_hypotheses.hpp>
 #include <diachron/eval/coregistration_case.hpp>
 #include <diachron/eval/match_truth.hpp>
 #include <diachron/synth/epoch.hpp>
@@ -70,4 +79,6 @@
 #include <diachron/synth/scene.hpp>
 #include <diachron/synth/terrain.hpp>
 #include <diachron/synth/texture.hpp>
+#include <diachron/pipeline/overlapping_pairs.hpp>
+#include <diachron/pipeline/precise_matching.hpp>
 #include <diachron/pipeline/rough_coregistration.hpp>

@@ -1,0 +1,58 @@
+#pragma once
+/// @file
+/// Shared pieces of the benchmarks that score matches with the truth of a synthetic scene
+/// (eval/match_truth.hpp): counts per error threshold, medians, a stopwatch.
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstddef>
+#include <vector>
+
+#include <diachron/eval/match_truth.hpp>
+
+namespace diachron::bench {
+
+inline double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+/// Median of `v` (the mean of the two middle values for an even count); NaN when empty.
+inline double median(std::vector<double> v) {
+  if (v.empty()) return std::nan("");
+  std::sort(v.begin(), v.end());
+  const std::size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+/// Counts of a set of matches scored against the truth. A match whose epoch-1 point is off the
+/// epoch-2 image or hidden there is decidably wrong; one on a surface that changed between the
+/// epochs cannot be decided, and is left out of the shares (counted as unscorable).
+struct Scored {
+  std::size_t matches = 0, scored = 0;
+  std::size_t within[4] = {0, 0, 0, 0};  // 1, 3, 6, 10 px
+  static constexpr double kThresholds[4] = {1.0, 3.0, 6.0, 10.0};
+  std::vector<double> errors;  // px, of the matches the truth could score
+
+  void add(const MatchTruth& t) {
+    ++matches;
+    if (t.status == MatchTruthStatus::off_image || t.status == MatchTruthStatus::occluded) ++scored;
+    if (!t.scored()) return;
+    ++scored;
+    errors.push_back(t.error_px);
+    for (int k = 0; k < 4; ++k)
+      if (t.error_px < kThresholds[k]) ++within[k];
+  }
+  void add(const Scored& o) {
+    matches += o.matches;
+    scored += o.scored;
+    for (int k = 0; k < 4; ++k) within[k] += o.within[k];
+    errors.insert(errors.end(), o.errors.begin(), o.errors.end());
+  }
+  /// Share (%) of the decidable matches within kThresholds[k].
+  double share(int k) const {
+    return scored ? 100.0 * static_cast<double>(within[k]) / static_cast<double>(scored) : std::nan("");
+  }
+};
+
+}  // namespace diachron::bench

@@ -1,0 +1,330 @@
+// precise_matching_eval: precise matching (pipeline/precise_matching.hpp) on decades-apart synthetic
+// scenes, every stage scored with the truth (docs/precise-matching.md).
+//
+//   precise_matching_eval [--seeds N] [--first-seed S] [--methods LIST] [--max-pairs N] [--threads N]
+//                         [--models DIR] [--warp corners|grid|piecewise] [--ncc-threshold T]
+//                         [--min-overlap F] [--radius PX]
+//
+// Methods (comma-separated; default all but xfeat when the model is absent):
+//   baseline        whole-image SIFT (8000 strongest keypoints), ratio 0.8 + mutual, F-RANSAC 3 px
+//   guided-rootsift guided matching of RootSIFT keypoints, then the ground filter and NCC
+//   guided-sift     the same with plain SIFT descriptors
+//   patch-sift, patch-akaze, patch-xfeat   one-to-one transfer-guided tiles, then the filters
+// For every seed of SceneOptions::decades_apart(): the rough co-registration of the two epoch DSMs
+// (today's defaults) gives the Helmert; overlapping_pairs() gives the pairs (estimated frames and
+// the epoch DSMs, as a user has them); every method runs on the same pairs. Stages: tentative,
+// after the ground filter, after NCC (matcher positions), after refinement (refined positions).
+// Everything is deterministic; times are wall clock of this machine.
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <map>
+#include <memory>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <opencv2/calib3d.hpp>
+
+#include <diachron/eval/match_truth.hpp>
+#include <diachron/pipeline/overlapping_pairs.hpp>
+#include <diachron/pipeline/precise_matching.hpp>
+#include <diachron/pipeline/rough_coregistration.hpp>
+#include <diachron/synth/scene.hpp>
+#include <diachron/vision/akaze.hpp>
+#include <diachron/vision/extractor_pair_matcher.hpp>
+#include <diachron/vision/sift.hpp>
+#include <diachron/vision/xfeat.hpp>
+
+#include "match_scoring.hpp"
+
+#ifndef DIACHRON_BENCH_MODELS_DIR
+#define DIACHRON_BENCH_MODELS_DIR ""
+#endif
+
+using namespace diachron;
+using diachron::bench::median;
+using diachron::bench::Scored;
+using diachron::bench::seconds_since;
+
+namespace {
+
+struct Arguments {
+  int seeds = 5;
+  std::uint64_t first_seed = 0;
+  std::vector<std::string> methods;
+  int max_pairs = 0;
+  std::size_t threads = 0;
+  std::string models = DIACHRON_BENCH_MODELS_DIR;
+  std::string warp;
+  double ncc_threshold = std::nan("");  // unset: the default
+  double min_overlap = 0.1;
+  double radius = std::nan("");  // unset: the default
+};
+
+std::vector<std::string> split_list(const std::string& text) {
+  std::vector<std::string> out;
+  std::stringstream in(text);
+  for (std::string item; std::getline(in, item, ',');)
+    if (!item.empty()) out.push_back(item);
+  return out;
+}
+
+Arguments parse(int argc, char** argv) {
+  Arguments a;
+  for (int i = 1; i < argc; ++i) {
+    const std::string s = argv[i];
+    auto value = [&]() -> std::string {
+      if (i + 1 >= argc) {
+        std::fprintf(stderr, "missing value after %s\n", s.c_str());
+        std::exit(1);
+      }
+      return argv[++i];
+    };
+    if (s == "--seeds") a.seeds = std::stoi(value());
+    else if (s == "--first-seed") a.first_seed = std::stoull(value());
+    else if (s == "--methods") a.methods = split_list(value());
+    else if (s == "--max-pairs") a.max_pairs = std::stoi(value());
+    else if (s == "--threads") a.threads = std::stoul(value());
+    else if (s == "--models") a.models = value();
+    else if (s == "--warp") a.warp = value();
+    else if (s == "--ncc-threshold") a.ncc_threshold = std::stod(value());
+    else if (s == "--min-overlap") a.min_overlap = std::stod(value());
+    else if (s == "--radius") a.radius = std::stod(value());
+    else {
+      std::fprintf(stderr, "unknown argument %s\n", s.c_str());
+      std::exit(1);
+    }
+  }
+  if (a.methods.empty()) {
+    a.methods = {"baseline", "guided-rootsift", "guided-sift", "patch-sift", "patch-akaze"};
+    if (!a.models.empty()) a.methods.push_back("patch-xfeat");
+  }
+  return a;
+}
+
+/// The stages of one method over all pairs of all seeds.
+struct StageResult {
+  Scored scored;
+  std::vector<double> matches_per_pair, correct3_per_pair;
+};
+
+struct MethodResult {
+  static constexpr int kStages = 4;  // tentative, ground, ncc, refined
+  StageResult stages[kStages];
+  std::vector<double> seconds_per_pair;
+  std::size_t pairs = 0;
+};
+
+const char* kStageNames[MethodResult::kStages] = {"tentative", "after ground filter", "after NCC",
+                                                  "after refinement"};
+
+void add_stage(StageResult& stage, const MatchTruthScorer& truth, const PrecisePairReport& pair,
+               const PointMatches& matches) {
+  Scored s;
+  for (const PointMatch& m : matches)
+    s.add(truth.score({0, static_cast<int>(pair.master)}, {1, static_cast<int>(pair.secondary)}, m.a, m.b));
+  stage.matches_per_pair.push_back(static_cast<double>(s.matches));
+  stage.correct3_per_pair.push_back(static_cast<double>(s.within[1]));
+  stage.scored.add(s);
+}
+
+void score_pair(MethodResult& result, const MatchTruthScorer& truth, const PrecisePairReport& pair) {
+  add_stage(result.stages[0], truth, pair, pair.tentative);
+  add_stage(result.stages[1], truth, pair, pair.grounded);
+  // After NCC at the matcher's positions: the NCC verdict applied to the grounded matches.
+  add_stage(result.stages[2], truth, pair,
+            pair.ncc.size() == pair.grounded.size() ? select_kept(pair.grounded, pair.ncc) : pair.matches);
+  add_stage(result.stages[3], truth, pair, pair.matches);
+  result.seconds_per_pair.push_back(pair.seconds.total);
+  ++result.pairs;
+}
+
+/// Whole-image SIFT on one pair (the baseline), as a PrecisePairReport whose later stages are
+/// the F-RANSAC inliers, so that it fills the same table.
+PrecisePairReport whole_image_sift(const Features& a, const Features& b, std::uint64_t seed) {
+  PrecisePairReport r;
+  const auto t0 = std::chrono::steady_clock::now();
+  const std::vector<FeatureIndexMatch> matches = match_features(a, b, DescriptorMetric::L2);
+  for (const FeatureIndexMatch& m : matches) r.tentative.push_back({a.keypoints[m.a].position, b.keypoints[m.b].position, 0.0});
+  if (matches.size() >= 8) {
+    std::vector<cv::Point2f> p1, p2;
+    for (const PointMatch& m : r.tentative) {
+      p1.emplace_back(static_cast<float>(m.a.x()), static_cast<float>(m.a.y()));
+      p2.emplace_back(static_cast<float>(m.b.x()), static_cast<float>(m.b.y()));
+    }
+    std::vector<uchar> mask;
+    cv::setRNGSeed(static_cast<int>(seed));
+    const cv::Mat f = cv::findFundamentalMat(p1, p2, cv::FM_RANSAC, 3.0, 0.99, mask);
+    if (!f.empty())
+      for (std::size_t k = 0; k < mask.size(); ++k)
+        if (mask[k]) r.grounded.push_back(r.tentative[k]);
+  }
+  r.matches = r.grounded;
+  r.seconds.total = seconds_since(t0);
+  return r;
+}
+
+void print_table(const std::vector<std::string>& methods, const std::map<std::string, MethodResult>& results) {
+  std::printf("\n| method | stage | matches / pair (median) | correct < 1 / 3 / 6 / 10 px | correct < 3 px / pair (median) | median error px | s / pair (median) |\n");
+  std::printf("|---|---|---|---|---|---|---|\n");
+  for (const std::string& m : methods) {
+    if (!results.count(m)) continue;
+    const MethodResult& r = results.at(m);
+    for (int s = 0; s < MethodResult::kStages; ++s) {
+      if (m == "baseline" && s >= 2) continue;
+      const StageResult& st = r.stages[s];
+      std::printf("| %s | %s | %.0f | %.1f / %.1f / %.1f / %.1f %% | %.0f | %.2f | %s |\n", m.c_str(),
+                  m == "baseline" ? (s == 0 ? "ratio + mutual" : "F-RANSAC inliers") : kStageNames[s],
+                  median(st.matches_per_pair), st.scored.share(0), st.scored.share(1), st.scored.share(2),
+                  st.scored.share(3), median(st.correct3_per_pair), median(st.scored.errors),
+                  s == 0 ? std::to_string(median(r.seconds_per_pair)).substr(0, 5).c_str() : "");
+    }
+  }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const Arguments args = parse(argc, argv);
+  try {
+    const bool want_xfeat = std::find(args.methods.begin(), args.methods.end(), "patch-xfeat") != args.methods.end();
+    std::unique_ptr<XFeatPairMatcher> xfeat;
+    if (want_xfeat) xfeat = std::make_unique<XFeatPairMatcher>(args.models + "/xfeat/xfeat.onnx");
+    PreciseMatchingOptions options;
+    options.threads = args.threads;
+    if (std::isfinite(args.ncc_threshold)) options.ncc.min_ncc = args.ncc_threshold;
+    if (std::isfinite(args.radius)) options.guided.search_radius_px = args.radius;
+    if (args.warp == "corners") options.patch.warp.kind = PatchWarpKind::homography_corners;
+    else if (args.warp == "grid") options.patch.warp.kind = PatchWarpKind::homography_grid;
+    else if (args.warp == "piecewise") options.patch.warp.kind = PatchWarpKind::piecewise_affine;
+    else if (!args.warp.empty()) throw Error("unknown --warp " + args.warp);
+
+    std::printf("precise_matching_eval: %d decades seeds from %llu, methods", args.seeds,
+                static_cast<unsigned long long>(args.first_seed));
+    for (const std::string& m : args.methods) std::printf(" %s", m.c_str());
+    std::printf("\n");
+    std::map<std::string, MethodResult> results;
+    std::vector<double> coreg_rms_cells;
+    int coreg_failures = 0;
+    std::size_t total_pairs = 0;
+    for (int s = 0; s < args.seeds; ++s) {
+      SceneOptions scene_options = SceneOptions::decades_apart();
+      scene_options.seed = args.first_seed + static_cast<std::uint64_t>(s);
+      scene_options.threads = args.threads;
+      auto t0 = std::chrono::steady_clock::now();
+      const Scene scene = generate_scene(scene_options);
+      std::fprintf(stderr, "seed %llu: scene in %.1f s\n", static_cast<unsigned long long>(scene_options.seed),
+                   seconds_since(t0));
+      const SyntheticEpoch& e1 = scene.epochs[0];
+      const SyntheticEpoch& e2 = scene.epochs[1];
+
+      RoughCoregistrationOptions rough_options;
+      rough_options.threads = args.threads;
+      const RoughCoregistrationReport rough =
+          rough_coregistration(e1.dsm, e2.dsm, ExtractorPairMatcher<SiftExtractor>(SiftExtractor{}), rough_options);
+      if (!rough.success) {
+        ++coreg_failures;
+        std::fprintf(stderr, "  rough co-registration failed: %s\n", rough.message.c_str());
+        continue;
+      }
+      double sum2 = 0.0;
+      for (const CheckPoint& cp : scene.check_points)
+        sum2 += (rough.epoch2_from_epoch1(e1.epoch_from_world()(cp.world)) - e2.epoch_from_world()(cp.world)).squaredNorm();
+      coreg_rms_cells.push_back(std::sqrt(sum2 / static_cast<double>(std::max<std::size_t>(scene.check_points.size(), 1))) /
+                                e2.dsm.min_cell_size());
+      std::fprintf(stderr, "  rough co-registration: RMS %.2f epoch-2 DSM cells\n", coreg_rms_cells.back());
+
+      std::vector<Frame<FraserAffine>> frames1, frames2;
+      std::vector<FootprintImage<Frame<FraserAffine>>> footprints1, footprints2;
+      for (std::size_t i = 0; i < e1.images.size(); ++i) {
+        frames1.push_back(e1.estimated_frame(i));
+        footprints1.push_back(make_footprint_image(frames1.back()));
+      }
+      for (std::size_t i = 0; i < e2.images.size(); ++i) {
+        frames2.push_back(e2.estimated_frame(i));
+        footprints2.push_back(make_footprint_image(frames2.back()));
+      }
+      OverlappingPairsOptions overlap_options;
+      overlap_options.min_overlap_fraction = args.min_overlap;
+      overlap_options.threads = args.threads;
+      const OverlappingPairsResult overlap =
+          overlapping_pairs(footprints1, e1.dsm, footprints2, e2.dsm, rough.epoch2_from_epoch1, overlap_options);
+      std::vector<ImagePairOverlap> pairs = overlap.pairs;
+      std::sort(pairs.begin(), pairs.end(), [](const ImagePairOverlap& a, const ImagePairOverlap& b) {
+        return a.master != b.master ? a.master < b.master : a.secondary < b.secondary;
+      });
+      if (args.max_pairs > 0 && pairs.size() > static_cast<std::size_t>(args.max_pairs)) {
+        std::vector<ImagePairOverlap> kept;
+        for (int k = 0; k < args.max_pairs; ++k)
+          kept.push_back(pairs[static_cast<std::size_t>(k) * pairs.size() / static_cast<std::size_t>(args.max_pairs)]);
+        pairs = kept;
+      }
+      total_pairs += pairs.size();
+      std::fprintf(stderr, "  %zu overlapping pairs\n", pairs.size());
+      PreciseEpoch<Frame<FraserAffine>> p1{frames1, [&e1](std::size_t i) { return e1.images[i].pixels; }, &e1.dsm};
+      PreciseEpoch<Frame<FraserAffine>> p2{frames2, [&e2](std::size_t i) { return e2.images[i].pixels; }, &e2.dsm};
+      const MatchTruthScorer truth(scene);
+
+      for (const std::string& m : args.methods) {
+        t0 = std::chrono::steady_clock::now();
+        PreciseMatchingReport report;
+        if (m == "baseline") {
+          SiftOptions so;
+          so.max_features = 8000;
+          const SiftExtractor sift(so);
+          std::vector<Features> f1(e1.images.size()), f2(e2.images.size());
+          parallel_for(f1.size() + f2.size(), args.threads, [&](std::size_t k) {
+            if (k < f1.size()) f1[k] = sift.extract(e1.images[k].pixels);
+            else f2[k - f1.size()] = sift.extract(e2.images[k - f1.size()].pixels);
+          });
+          for (const ImagePairOverlap& p : pairs) {
+            PrecisePairReport r = whole_image_sift(f1[p.master], f2[p.secondary], scene.seed);
+            r.master = p.master;
+            r.secondary = p.secondary;
+            report.pairs.push_back(std::move(r));
+          }
+        } else if (m == "guided-rootsift" || m == "guided-sift") {
+          SiftOptions so;
+          so.root_sift = m == "guided-rootsift";
+          report = precise_matching_guided(p1, p2, rough.epoch2_from_epoch1, pairs, SiftExtractor(so), options);
+        } else if (m == "patch-sift") {
+          report = precise_matching_patch(p1, p2, rough.epoch2_from_epoch1, pairs,
+                                          ExtractorPairMatcher<SiftExtractor>(SiftExtractor{}), options);
+        } else if (m == "patch-akaze") {
+          report = precise_matching_patch(p1, p2, rough.epoch2_from_epoch1, pairs,
+                                          ExtractorPairMatcher<AkazeExtractor>(AkazeExtractor{}), options);
+        } else if (m == "patch-xfeat") {
+          report = precise_matching_patch(p1, p2, rough.epoch2_from_epoch1, pairs, *xfeat, options);
+        } else {
+          throw Error("unknown method " + m);
+        }
+        MethodResult& result = results[m];
+        for (const PrecisePairReport& r : report.pairs) score_pair(result, truth, r);
+        std::fprintf(stderr, "  %s: %.1f s, median %.0f final correct (< 3 px) per pair so far\n", m.c_str(),
+                     seconds_since(t0), median(result.stages[3].correct3_per_pair));
+      }
+    }
+    std::printf("\nrough co-registration: %zu of %d seeds, RMS %.2f epoch-2 DSM cells (median); %zu pairs\n",
+                coreg_rms_cells.size(), args.seeds, median(coreg_rms_cells), total_pairs);
+    (void)coreg_failures;
+    print_table(args.methods, results);
+    if (results.count("baseline")) {
+      const double base = static_cast<double>(results.at("baseline").stages[1].scored.within[1]);
+      std::printf("\n| method | correct final matches (< 3 px), all pairs | ratio to whole-image SIFT inliers |\n|---|---|---|\n");
+      for (const std::string& m : args.methods) {
+        if (m == "baseline" || !results.count(m)) continue;
+        const double ours = static_cast<double>(results.at(m).stages[3].scored.within[1]);
+        std::printf("| %s | %.0f | %.1f |\n", m.c_str(), ours, base > 0 ? ours / base : std::nan(""));
+      }
+      std::printf("(whole-image SIFT: %.0f correct F-RANSAC inliers on the same pairs)\n", base);
+    }
+    return 0;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "precise_matching_eval: %s\n", e.what());
+    return 1;
+  }
+}

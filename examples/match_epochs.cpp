@@ -1,0 +1,270 @@
+// match_epochs: inter-epoch tie points between two epochs of aerial images (paper section 3.2):
+// rough co-registration from the DSMs, overlapping image pairs, precise matching per pair.
+//
+//   match_epochs EPOCH1_DIR EPOCH2_DIR --out DIR [options]
+//
+// Each epoch folder holds a COLMAP text model (cameras.txt, images.txt, points3D.txt), images/ and
+// dsm.tif in the model's frame (what make_scene writes). Epoch 1 is the master (moved onto epoch 2).
+// Writes
+//   DIR/rough_helmert.json  the rough co-registration, X2 = scale R X1 + translation (helmert.json's keys)
+//   DIR/Homol/              final inter-epoch tie points, MicMac Homol (both directions; names as in images.txt)
+//   DIR/report.json         counts per stage and per pair, timings
+//   DIR/pairs/<a>--<b>.png  each pair's final matches
+// Progress on stderr. Exit status: 0 success, 2 no co-registration or no match (reason printed),
+// 1 bad input (one line). The stages are pipeline/rough_coregistration.hpp,
+// pipeline/overlapping_pairs.hpp and pipeline/precise_matching.hpp; docs/precise-matching.md says
+// how the defaults were chosen.
+
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <memory>
+#include <sstream>
+#include <string>
+#include <sys/stat.h>
+
+#include <diachron/io/epoch_folder.hpp>
+#include <diachron/io/geotiff.hpp>
+#include <diachron/io/helmert_json.hpp>
+#include <diachron/io/homol.hpp>
+#include <diachron/pipeline/overlapping_pairs.hpp>
+#include <diachron/pipeline/precise_matching.hpp>
+#include <diachron/pipeline/rough_coregistration.hpp>
+#include <diachron/vision/akaze.hpp>
+#include <diachron/vision/draw_matches.hpp>
+#include <diachron/vision/extractor_pair_matcher.hpp>
+#include <diachron/vision/sift.hpp>
+#include <diachron/vision/xfeat.hpp>
+
+namespace {
+
+using namespace diachron;
+
+const char* kUsage =
+    "usage: match_epochs EPOCH1_DIR EPOCH2_DIR --out DIR [options]\n"
+    "  --method patch|guided                  tentative matches: one-to-one transfer-guided tiles, or\n"
+    "                                         keypoints guided by DSM + Helmert (default guided)\n"
+    "  --matcher sift|rootsift|akaze|xfeat    features (default rootsift; guided: sift|rootsift|xfeat)\n"
+    "  --model PATH                           XFeat ONNX file (with --matcher xfeat)\n"
+    "  --min-overlap F                        least overlap of a pair, share of the smaller footprint\n"
+    "                                         (default 0.1)\n"
+    "  --ncc-threshold T                      least NCC of a kept match (default 0.6, MicMac's)\n"
+    "  --no-refine                            keep the matcher's positions (no least-squares refinement)\n"
+    "  --no-ground-filter                     skip the 3D Helmert RANSAC\n"
+    "  --no-ncc                               skip the NCC validator\n"
+    "  --no-pictures                          do not write pairs/*.png\n"
+    "  --threads N                            worker threads, 0 = all cores (default 0)\n"
+    "  --quiet                                no progress on stderr\n";
+
+std::string quoted(const std::string& s) {
+  std::string q = "\"";
+  for (char c : s) {
+    if (c == '"' || c == '\\') q += '\\';
+    if (static_cast<unsigned char>(c) < 0x20) continue;
+    q += c;
+  }
+  return q + "\"";
+}
+
+// A file name for a pair picture: the image names with '/' made safe.
+std::string safe(std::string name) {
+  for (char& c : name)
+    if (c == '/' || c == '\\' || c == ' ') c = '_';
+  return name;
+}
+
+void make_directory(const std::string& path) {
+  ::mkdir(path.c_str(), 0755);
+  struct stat info {};
+  DIACHRON_CHECK(::stat(path.c_str(), &info) == 0 && S_ISDIR(info.st_mode), "cannot create folder " << path);
+}
+
+void write_report(const std::string& path, const EpochFolder& e1, const EpochFolder& e2,
+                  const RoughCoregistrationReport& rough, const OverlappingPairsResult& overlap,
+                  const PreciseMatchingReport& precise, const std::string& method, const std::string& matcher) {
+  std::ofstream out(path);
+  DIACHRON_CHECK(out.good(), "cannot write " << path);
+  out.precision(10);
+  out << "{\n  \"method\": " << quoted(method) << ",\n  \"matcher\": " << quoted(matcher) << ",\n";
+  out << "  \"rough_coregistration\": {\"success\": " << (rough.success ? "true" : "false")
+      << ", \"message\": " << quoted(rough.message) << ", \"inliers_2d\": " << rough.inliers_2d.size()
+      << ", \"inliers_3d\": " << rough.inliers_3d.size() << ", \"rms_3d\": " << rough.rms_3d
+      << ", \"seconds\": " << rough.seconds.total << "},\n";
+  out << "  \"overlapping_pairs\": {\"candidates\": " << overlap.candidate_pairs
+      << ", \"overlapping\": " << overlap.overlapping_pairs << ", \"kept\": " << overlap.pairs.size()
+      << ", \"invalid_footprints\": [" << overlap.invalid_master_footprints << ", "
+      << overlap.invalid_secondary_footprints << "], \"message\": " << quoted(overlap.message) << "},\n";
+  out << "  \"precise_matching\": {\"success\": " << (precise.success ? "true" : "false")
+      << ", \"message\": " << quoted(precise.message) << ", \"tentative\": " << precise.tentative
+      << ", \"after_ground_filter\": " << precise.grounded << ", \"final\": " << precise.final_matches
+      << ", \"seconds_features\": " << precise.seconds_features << ", \"seconds\": " << precise.seconds_total
+      << ",\n    \"pairs\": [";
+  for (std::size_t k = 0; k < precise.pairs.size(); ++k) {
+    const PrecisePairReport& p = precise.pairs[k];
+    const ImagePairOverlap& o = overlap.pairs[k];
+    out << (k ? ",\n      " : "\n      ") << "{\"master\": " << quoted(e1.images[p.master].name)
+        << ", \"secondary\": " << quoted(e2.images[p.secondary].name) << ", \"overlap_fraction\": " << o.fraction_of_smaller
+        << ", \"tentative\": " << p.tentative.size() << ", \"after_ground_filter\": " << p.grounded.size()
+        << ", \"final\": " << p.matches.size() << ", \"message\": " << quoted(p.message)
+        << ", \"seconds\": {\"images\": " << p.seconds.images << ", \"tentative\": " << p.seconds.tentative
+        << ", \"ground\": " << p.seconds.ground << ", \"ncc\": " << p.seconds.ncc << ", \"total\": " << p.seconds.total
+        << "}}";
+  }
+  out << "]}\n}\n";
+  out.close();
+  DIACHRON_CHECK(!out.fail(), "cannot write " << path);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string dir1, dir2, out_dir, method = "guided", matcher_name = "rootsift", model_path;
+  PreciseMatchingOptions options;
+  OverlappingPairsOptions overlap_options;
+  bool quiet = false, pictures = true;
+  double min_overlap = 0.1;
+  std::size_t threads = 0;
+  try {
+    for (int i = 1; i < argc; ++i) {
+      const std::string a = argv[i];
+      auto value = [&]() -> std::string {
+        DIACHRON_CHECK(i + 1 < argc, "missing value after " << a);
+        return argv[++i];
+      };
+      if (a == "--out") out_dir = value();
+      else if (a == "--method") method = value();
+      else if (a == "--matcher") matcher_name = value();
+      else if (a == "--model") model_path = value();
+      else if (a == "--min-overlap") min_overlap = std::stod(value());
+      else if (a == "--ncc-threshold") options.ncc.min_ncc = std::stod(value());
+      else if (a == "--no-refine") options.ncc.refine = false;
+      else if (a == "--no-ground-filter") options.use_ground_filter = false;
+      else if (a == "--no-ncc") options.use_ncc = false;
+      else if (a == "--no-pictures") pictures = false;
+      else if (a == "--threads") threads = std::stoul(value());
+      else if (a == "--quiet") quiet = true;
+      else if (a == "--help" || a == "-h") {
+        std::cout << kUsage;
+        return 0;
+      } else if (!a.empty() && a[0] == '-') DIACHRON_CHECK(false, "unknown option " << a);
+      else if (dir1.empty()) dir1 = a;
+      else if (dir2.empty()) dir2 = a;
+      else DIACHRON_CHECK(false, "unexpected argument " << a);
+    }
+    DIACHRON_CHECK(!dir1.empty() && !dir2.empty() && !out_dir.empty(), "two epoch folders and --out DIR are required");
+    DIACHRON_CHECK(method == "patch" || method == "guided", "unknown --method '" << method << "' (patch or guided)");
+    DIACHRON_CHECK(matcher_name == "sift" || matcher_name == "rootsift" || matcher_name == "akaze" ||
+                       matcher_name == "xfeat",
+                   "unknown --matcher '" << matcher_name << "'");
+    DIACHRON_CHECK(method == "patch" || matcher_name != "akaze",
+                   "--method guided takes sift, rootsift or xfeat features (AKAZE's are binary)");
+    DIACHRON_CHECK(matcher_name != "xfeat" || !model_path.empty(), "--matcher xfeat needs --model PATH");
+    options.threads = threads;
+    options.check();
+    overlap_options.check();
+    ProgressCallback progress;
+    if (!quiet)
+      progress = [](const ProgressEvent& e) {
+        std::fprintf(stderr, "\r%s: %zu/%zu ", e.stage.c_str(), e.done, e.total);
+        if (e.done == e.total) std::fprintf(stderr, "\n");
+      };
+    options.progress = progress;
+
+    const EpochFolder e1 = read_epoch_folder(dir1);
+    const EpochFolder e2 = read_epoch_folder(dir2);
+    make_directory(out_dir);
+    if (!quiet)
+      std::fprintf(stderr, "epoch 1: %zu images, DSM %d x %d; epoch 2: %zu images, DSM %d x %d\n", e1.images.size(),
+                   e1.dsm.width(), e1.dsm.height(), e2.images.size(), e2.dsm.width(), e2.dsm.height());
+
+    // 1. Rough co-registration from the DSMs (its defaults: SIFT on slope images).
+    RoughCoregistrationOptions rough_options;
+    rough_options.threads = threads;
+    rough_options.progress = progress;
+    const RoughCoregistrationReport rough =
+        rough_coregistration(e1.dsm, e2.dsm, ExtractorPairMatcher<SiftExtractor>(SiftExtractor{}), rough_options);
+    std::printf("rough co-registration: %s\n", rough.message.c_str());
+    OverlappingPairsResult overlap;
+    overlap_options.min_overlap_fraction = min_overlap;
+    PreciseMatchingReport precise;
+    if (!rough.success) {
+      write_report(out_dir + "/report.json", e1, e2, rough, overlap, precise, method, matcher_name);
+      std::printf("no co-registration: %s\n", rough.message.c_str());
+      return 2;
+    }
+    write_helmert_json(rough.epoch2_from_epoch1, out_dir + "/rough_helmert.json");
+
+    // 2. Overlapping pairs through the DSMs, epoch 1's footprints moved by the Helmert.
+    std::vector<Frame<FraserAffine>> frames1, frames2;
+    std::vector<FootprintImage<Frame<FraserAffine>>> footprints1, footprints2;
+    for (const EpochImage& im : e1.images) {
+      frames1.push_back(im.frame);
+      footprints1.push_back(make_footprint_image(im.frame));
+    }
+    for (const EpochImage& im : e2.images) {
+      frames2.push_back(im.frame);
+      footprints2.push_back(make_footprint_image(im.frame));
+    }
+    overlap_options.threads = threads;
+    overlap = overlapping_pairs(footprints1, e1.dsm, footprints2, e2.dsm, rough.epoch2_from_epoch1, overlap_options);
+    std::printf("overlapping pairs: %zu of %zu candidates (%s)\n", overlap.pairs.size(), overlap.candidate_pairs,
+                overlap.message.c_str());
+    if (overlap.pairs.empty()) {
+      write_report(out_dir + "/report.json", e1, e2, rough, overlap, precise, method, matcher_name);
+      std::printf("no overlapping pair: %s\n", overlap.message.c_str());
+      return 2;
+    }
+
+    // 3. Precise matching per pair.
+    PreciseEpoch<Frame<FraserAffine>> p1{frames1, [&e1](std::size_t i) { return e1.load_image(i); }, &e1.dsm};
+    PreciseEpoch<Frame<FraserAffine>> p2{frames2, [&e2](std::size_t i) { return e2.load_image(i); }, &e2.dsm};
+    SiftOptions sift_options;
+    sift_options.root_sift = matcher_name == "rootsift";
+    if (method == "patch") {
+      if (matcher_name == "akaze")
+        precise = precise_matching_patch(p1, p2, rough.epoch2_from_epoch1, overlap.pairs,
+                                         ExtractorPairMatcher<AkazeExtractor>(AkazeExtractor{}), options);
+      else if (matcher_name == "xfeat")
+        precise = precise_matching_patch(p1, p2, rough.epoch2_from_epoch1, overlap.pairs, XFeatPairMatcher(model_path),
+                                         options);
+      else
+        precise = precise_matching_patch(p1, p2, rough.epoch2_from_epoch1, overlap.pairs,
+                                         ExtractorPairMatcher<SiftExtractor>(SiftExtractor(sift_options)), options);
+    } else {
+      if (matcher_name == "xfeat") {
+        options.guided.metric = DescriptorDistance::Cosine;
+        precise = precise_matching_guided(p1, p2, rough.epoch2_from_epoch1, overlap.pairs, XFeatExtractor(model_path),
+                                          options);
+      } else {
+        precise = precise_matching_guided(p1, p2, rough.epoch2_from_epoch1, overlap.pairs, SiftExtractor(sift_options),
+                                          options);
+      }
+    }
+
+    // 4. Outputs.
+    write_report(out_dir + "/report.json", e1, e2, rough, overlap, precise, method, matcher_name);
+    const std::string homol = out_dir + "/Homol";
+    make_directory(homol);
+    if (pictures) make_directory(out_dir + "/pairs");
+    for (const PrecisePairReport& p : precise.pairs) {
+      const std::string& a = e1.images[p.master].name;
+      const std::string& b = e2.images[p.secondary].name;
+      std::printf("%s -- %s: %zu tentative, %zu after the ground filter, %zu final\n", a.c_str(), b.c_str(),
+                  p.tentative.size(), p.grounded.size(), p.matches.size());
+      if (p.matches.empty()) continue;
+      write_homol(homol, a, b, p.matches);
+      if (pictures)
+        write_matches_png(out_dir + "/pairs/" + safe(a) + "--" + safe(b) + ".png", e1.load_image(p.master),
+                          e2.load_image(p.secondary), p.matches);
+    }
+    std::printf("%s (%.1f s)\n", precise.message.c_str(), precise.seconds_total);
+    if (!precise.success) {
+      std::printf("no inter-epoch match: %s\n", precise.message.c_str());
+      return 2;
+    }
+    return 0;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "match_epochs: %s\n", e.what());
+    return 1;
+  }
+}

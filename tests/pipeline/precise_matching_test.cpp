@@ -1,0 +1,173 @@
+// Precise matching composed over a small synthetic two-epoch scene: overlapping pairs through the
+// DSMs, guided and patch matching, the ground filter and NCC, every final match judged with the
+// scene's truth; determinism across thread counts; no pair is an answer, not an error.
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <catch2/catch.hpp>
+
+#include <diachron/eval/match_truth.hpp>
+#include <diachron/pipeline/overlapping_pairs.hpp>
+#include <diachron/pipeline/precise_matching.hpp>
+#include <diachron/synth/scene.hpp>
+#include <diachron/vision/extractor_pair_matcher.hpp>
+#include <diachron/vision/sift.hpp>
+
+using namespace diachron;
+
+namespace {
+
+struct Fixture {
+  Scene scene;
+  std::vector<Frame<FraserAffine>> frames1, frames2;
+  std::vector<ImagePairOverlap> pairs;
+};
+
+// Generated once: two epochs of 1 x 2 images of 400 x 300 px, 40 years apart in the generator's
+// default change model; the SfM's estimated cameras and the epoch DSMs, as a user has them.
+const Fixture& fixture() {
+  static const Fixture f = [] {
+    Fixture out;
+    SceneOptions o;
+    o.seed = 5;
+    for (EpochOptions& e : o.epochs) {
+      e.rows = 1;
+      e.columns = 2;
+      e.tie_points = 20;
+    }
+    o.check_points = 5;
+    out.scene = generate_scene(o);
+    std::vector<FootprintImage<Frame<FraserAffine>>> f1, f2;
+    const SyntheticEpoch& e1 = out.scene.epochs[0];
+    const SyntheticEpoch& e2 = out.scene.epochs[1];
+    for (std::size_t i = 0; i < e1.images.size(); ++i) {
+      out.frames1.push_back(e1.estimated_frame(i));
+      f1.push_back(make_footprint_image(out.frames1.back()));
+    }
+    for (std::size_t i = 0; i < e2.images.size(); ++i) {
+      out.frames2.push_back(e2.estimated_frame(i));
+      f2.push_back(make_footprint_image(out.frames2.back()));
+    }
+    OverlappingPairsOptions po;
+    po.min_overlap_fraction = 0.2;
+    out.pairs = overlapping_pairs(f1, e1.dsm, f2, e2.dsm, out.scene.epoch2_from_epoch1(), po).pairs;
+    return out;
+  }();
+  return f;
+}
+
+PreciseEpoch<Frame<FraserAffine>> epoch_view(const Fixture& f, int e) {
+  const SyntheticEpoch& epoch = f.scene.epochs[static_cast<std::size_t>(e)];
+  return {e == 0 ? f.frames1 : f.frames2, [&epoch](std::size_t i) { return epoch.images[i].pixels; }, &epoch.dsm};
+}
+
+struct Judged {
+  std::size_t matches = 0, decidable = 0, within3 = 0;
+};
+
+// Every final match against the truth; changed surfaces are undecidable and left out.
+Judged judge(const Fixture& f, const PreciseMatchingReport& report) {
+  const MatchTruthScorer truth(f.scene);
+  Judged j;
+  for (const PrecisePairReport& p : report.pairs)
+    for (const PointMatch& m : p.matches) {
+      ++j.matches;
+      const MatchTruth t =
+          truth.score({0, static_cast<int>(p.master)}, {1, static_cast<int>(p.secondary)}, m.a, m.b);
+      if (t.status == MatchTruthStatus::changed_surface || t.status == MatchTruthStatus::no_surface) continue;
+      ++j.decidable;
+      if (t.scored() && t.error_px < 3.0) ++j.within3;
+    }
+  return j;
+}
+
+bool same_matches(const PreciseMatchingReport& a, const PreciseMatchingReport& b) {
+  if (a.pairs.size() != b.pairs.size()) return false;
+  for (std::size_t k = 0; k < a.pairs.size(); ++k) {
+    const PointMatches& x = a.pairs[k].matches;
+    const PointMatches& y = b.pairs[k].matches;
+    if (x.size() != y.size()) return false;
+    for (std::size_t i = 0; i < x.size(); ++i)
+      if (x[i].a != y[i].a || x[i].b != y[i].b) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+TEST_CASE("guided precise matching: correct matches on every overlapping pair, whatever the threads",
+          "[pipeline][precise]") {
+  const Fixture& f = fixture();
+  REQUIRE(f.pairs.size() >= 2);
+  PreciseMatchingOptions options;
+  options.threads = 2;
+  const PreciseMatchingReport report = precise_matching_guided(epoch_view(f, 0), epoch_view(f, 1),
+                                                               f.scene.epoch2_from_epoch1(), f.pairs,
+                                                               RootSiftExtractor{}, options);
+  INFO(report.message);
+  REQUIRE(report.success);
+  REQUIRE(report.pairs.size() == f.pairs.size());
+  for (std::size_t k = 0; k < report.pairs.size(); ++k) {
+    const PrecisePairReport& p = report.pairs[k];
+    CHECK(p.master == f.pairs[k].master);
+    CHECK(p.secondary == f.pairs[k].secondary);
+    // Each stage only removes: the filters judge exactly the list before them.
+    CHECK(p.ground.size() == p.tentative.size());
+    CHECK(p.grounded.size() == p.ground.kept());
+    CHECK(p.ncc.size() == p.grounded.size());
+    CHECK(p.matches.size() == p.ncc.kept());
+  }
+  CHECK(report.final_matches == judge(f, report).matches);
+  const Judged j = judge(f, report);
+  INFO(j.within3 << " of " << j.decidable << " decidable final matches within 3 px");
+  CHECK(j.matches >= 40);
+  CHECK(j.within3 >= 0.95 * static_cast<double>(j.decidable));
+
+  options.threads = 1;
+  const PreciseMatchingReport serial = precise_matching_guided(epoch_view(f, 0), epoch_view(f, 1),
+                                                               f.scene.epoch2_from_epoch1(), f.pairs,
+                                                               RootSiftExtractor{}, options);
+  CHECK(same_matches(report, serial));
+}
+
+TEST_CASE("patch precise matching: transfer-guided tiles with SIFT, then the filters", "[pipeline][precise]") {
+  const Fixture& f = fixture();
+  REQUIRE(!f.pairs.empty());
+  const std::vector<ImagePairOverlap> first(f.pairs.begin(), f.pairs.begin() + 1);
+  PreciseMatchingOptions options;
+  options.threads = 2;
+  const PreciseMatchingReport report =
+      precise_matching_patch(epoch_view(f, 0), epoch_view(f, 1), f.scene.epoch2_from_epoch1(), first,
+                             ExtractorPairMatcher<SiftExtractor>(SiftExtractor{}), options);
+  INFO(report.message);
+  REQUIRE(report.success);
+  const Judged j = judge(f, report);
+  INFO(j.within3 << " of " << j.decidable << " decidable final matches within 3 px");
+  CHECK(j.matches >= 20);
+  CHECK(j.within3 >= 0.95 * static_cast<double>(j.decidable));
+}
+
+TEST_CASE("precise matching: no pair is an answer, bad input an error", "[pipeline][precise]") {
+  const Fixture& f = fixture();
+  const PreciseMatchingReport none = precise_matching_guided(epoch_view(f, 0), epoch_view(f, 1),
+                                                             f.scene.epoch2_from_epoch1(), {}, RootSiftExtractor{});
+  CHECK_FALSE(none.success);
+  CHECK(none.message == "no overlapping pair");
+  CHECK(none.pairs.empty());
+
+  // A pair naming an image the epoch does not have.
+  std::vector<ImagePairOverlap> wrong(1);
+  wrong[0].master = 7;
+  CHECK_THROWS_WITH(precise_matching_patch(epoch_view(f, 0), epoch_view(f, 1), f.scene.epoch2_from_epoch1(), wrong,
+                                           ExtractorPairMatcher<SiftExtractor>(SiftExtractor{})),
+                    Catch::Contains("refers to images 7 and 0"));
+  PreciseEpoch<Frame<FraserAffine>> no_dsm = epoch_view(f, 1);
+  no_dsm.dsm = nullptr;
+  CHECK_THROWS_WITH(precise_matching_guided(epoch_view(f, 0), no_dsm, f.scene.epoch2_from_epoch1(), f.pairs,
+                                            RootSiftExtractor{}),
+                    Catch::Contains("epoch 2 has no DSM"));
+}
