@@ -56,6 +56,7 @@
 using namespace diachron;
 using diachron::bench::median;
 using diachron::bench::Scored;
+using diachron::bench::split_list;
 using diachron::bench::seconds_since;
 
 namespace {
@@ -83,14 +84,6 @@ struct Arguments {
                "                    [--models DIR]\n",
                message.c_str());
   std::exit(1);
-}
-
-std::vector<std::string> split_list(const std::string& text) {
-  std::vector<std::string> out;
-  std::stringstream in(text);
-  for (std::string item; std::getline(in, item, ',');)
-    if (!item.empty()) out.push_back(item);
-  return out;
 }
 
 Arguments parse(int argc, char** argv) {

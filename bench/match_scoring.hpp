@@ -1,12 +1,14 @@
 #pragma once
 /// @file
 /// Shared pieces of the benchmarks that score matches with the truth of a synthetic scene
-/// (eval/match_truth.hpp): counts per error threshold, medians, a stopwatch.
+/// (eval/match_truth.hpp): counts per error threshold, medians, a stopwatch, list arguments.
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstddef>
+#include <sstream>
+#include <string>
 #include <vector>
 
 #include <diachron/eval/match_truth.hpp>
@@ -15,6 +17,15 @@ namespace diachron::bench {
 
 inline double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+/// The non-empty items of a comma-separated command-line list ("a,b,,c" -> a, b, c).
+inline std::vector<std::string> split_list(const std::string& text) {
+  std::vector<std::string> out;
+  std::stringstream in(text);
+  for (std::string item; std::getline(in, item, ',');)
+    if (!item.empty()) out.push_back(item);
+  return out;
 }
 
 /// Median of `v` (the mean of the two middle values for an even count); NaN when empty.

@@ -37,7 +37,13 @@
 #include <diachron/vision/extractor_pair_matcher.hpp>
 #include <diachron/vision/sift.hpp>
 
+#include "match_scoring.hpp"
+
 using namespace diachron;
+
+using diachron::bench::median;
+using diachron::bench::Scored;
+using diachron::bench::seconds_since;
 
 namespace {
 
@@ -94,41 +100,6 @@ GridTilerOptions layout(const std::string& name) {
   // small: the paper era's 640 x 480 tiles with MicMac's 10 % buffer per side.
   return name == "precise" ? GridTilerOptions::micmac_precise() : GridTilerOptions{640, 480, 64, 48};
 }
-
-double seconds_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
-
-double median(std::vector<double> v) {
-  if (v.empty()) return std::nan("");
-  std::sort(v.begin(), v.end());
-  const std::size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
-
-// Matches scored against the truth. Off-image and occluded ones are decidably wrong; those on a
-// surface that changed between the epochs cannot be decided and stay out of the shares.
-struct Scored {
-  std::size_t matches = 0, scored = 0;
-  std::size_t within[4] = {0, 0, 0, 0};  // 1, 3, 6, 10 px
-  void add(const MatchTruth& t) {
-    static constexpr double kThresholds[4] = {1.0, 3.0, 6.0, 10.0};
-    ++matches;
-    if (t.status == MatchTruthStatus::off_image || t.status == MatchTruthStatus::occluded) ++scored;
-    if (!t.scored()) return;
-    ++scored;
-    for (int k = 0; k < 4; ++k)
-      if (t.error_px < kThresholds[k]) ++within[k];
-  }
-  void add(const Scored& o) {
-    matches += o.matches;
-    scored += o.scored;
-    for (int k = 0; k < 4; ++k) within[k] += o.within[k];
-  }
-  double share(int k) const {
-    return scored ? 100.0 * static_cast<double>(within[k]) / static_cast<double>(scored) : std::nan("");
-  }
-};
 
 struct TileRecord {
   double relief_m = std::nan("");  // height range of the epoch-1 DSM under the tile

@@ -48,6 +48,7 @@
 using namespace diachron;
 using diachron::bench::median;
 using diachron::bench::Scored;
+using diachron::bench::split_list;
 using diachron::bench::seconds_since;
 
 namespace {
@@ -64,14 +65,6 @@ struct Arguments {
   double min_overlap = 0.1;
   double radius = std::nan("");  // unset: the default
 };
-
-std::vector<std::string> split_list(const std::string& text) {
-  std::vector<std::string> out;
-  std::stringstream in(text);
-  for (std::string item; std::getline(in, item, ',');)
-    if (!item.empty()) out.push_back(item);
-  return out;
-}
 
 Arguments parse(int argc, char** argv) {
   Arguments a;
