@@ -28,6 +28,7 @@
 // The paper's plain SIFT baseline is stretch2/sift/whole/norot. Prints a Markdown table.
 
 #include <algorithm>
+#include <cctype>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -111,6 +112,21 @@ Config parse_config(const std::string& text) {
                      c.matcher == "orb",
                  "unknown matcher '" << c.matcher << "'");
   if (image == "default") return c;
+  // upN: the default with small DSM images enlarged below N px (ScaleHypothesesOptions::
+  // upsample_below_px; up0 never enlarges); upNmK: also min_side_cells K; upNxF (or upNmKxF): also
+  // max_upsample F.
+  if (image.rfind("up", 0) == 0 && image.size() > 2 && std::isdigit(static_cast<unsigned char>(image[2]))) {
+    std::size_t end = image.size();
+    for (const char key : {'x', 'm'}) {  // upNmKxF: suffixes parsed from the end
+      const std::size_t at = image.find(key, 2);
+      if (at == std::string::npos) continue;
+      const int value = std::stoi(image.substr(at + 1, end - at - 1));
+      (key == 'x' ? o.scale_hypotheses.max_upsample : o.scale_hypotheses.min_side_cells) = value;
+      end = std::min(end, at);
+    }
+    o.scale_hypotheses.upsample_below_px = std::stoi(image.substr(2, end - 2));
+    return c;
+  }
   if (image == "noscale") {
     o.scale_hypotheses.enabled = false;
     return c;
