@@ -116,7 +116,8 @@ struct RoughCoregistrationOptions {
   /// resolution gaps (a 10 m historical DSM against a 2 m modern one): measured in
   /// docs/rough-coregistration.md, a 4 to 8 times gap failed without them. DSMs without a gap
   /// succeed at the first hypothesis and cost nothing more; failures cost every hypothesis (each
-  /// level about a quarter of the one before, the unchanged DSM's features extracted once).
+  /// level about a quarter of the one before, the unchanged DSM's features extracted once). DSM
+  /// images under 160 px on their shorter side are enlarged before matching (upsample_below_px).
   ScaleHypothesesOptions scale_hypotheses{};
 
   /// 2D similarity RANSAC on DSM-image pixels: 10 px and 1000 iterations as the paper and MicMac.
