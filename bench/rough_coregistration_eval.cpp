@@ -24,7 +24,8 @@
 //   TILING    tiles (640 x 480, no buffer, the paper's) | whole
 //   ROTATIONS rot (0/90/180/270, always) | norot
 // or default/MATCHER/default/default: RoughCoregistrationOptions{} as shipped, and
-// noscale/MATCHER/default/default: the same without scale hypotheses.
+// noscale/MATCHER/default/default: the same without scale hypotheses (small images are still
+// enlarged; up0 turns that off), upN[mK][xF]: see parse_config.
 // The paper's plain SIFT baseline is stretch2/sift/whole/norot. Prints a Markdown table.
 
 #include <algorithm>

@@ -32,7 +32,8 @@ namespace diachron {
 
 /// Options of plan_scale_hypotheses() and of the scale search in rough_coregistration().
 struct ScaleHypothesesOptions {
-  /// Try coarser levels at all. Off: the DSMs are matched at their own resolutions only.
+  /// Try coarser levels at all. Off: the DSMs are matched at their own resolutions only (small
+  /// images are still enlarged: see upsample_below_px).
   bool enabled = true;
   /// Coarsest level: factor 2^max_level (3: 8 times coarser). Each level halves the cell count
   /// along each axis, so a level costs about a quarter of the one before it.
