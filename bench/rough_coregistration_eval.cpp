@@ -24,10 +24,12 @@
 //   TILING    tiles (640 x 480, no buffer, the paper's) | whole
 //   ROTATIONS rot (0/90/180/270, always) | norot
 // or default/MATCHER/default/default: RoughCoregistrationOptions{} as shipped, and
-// noscale/MATCHER/default/default: the same without scale hypotheses.
+// noscale/MATCHER/default/default: the same without scale hypotheses (small images are still
+// enlarged; up0 turns that off), upN[mK][xF]: see parse_config.
 // The paper's plain SIFT baseline is stretch2/sift/whole/norot. Prints a Markdown table.
 
 #include <algorithm>
+#include <cctype>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -111,6 +113,21 @@ Config parse_config(const std::string& text) {
                      c.matcher == "orb",
                  "unknown matcher '" << c.matcher << "'");
   if (image == "default") return c;
+  // upN: the default with small DSM images enlarged below N px (ScaleHypothesesOptions::
+  // upsample_below_px; up0 never enlarges); upNmK: also min_side_cells K; upNxF (or upNmKxF): also
+  // max_upsample F.
+  if (image.rfind("up", 0) == 0 && image.size() > 2 && std::isdigit(static_cast<unsigned char>(image[2]))) {
+    std::size_t end = image.size();
+    for (const char key : {'x', 'm'}) {  // upNmKxF: suffixes parsed from the end
+      const std::size_t at = image.find(key, 2);
+      if (at == std::string::npos) continue;
+      const int value = std::stoi(image.substr(at + 1, end - at - 1));
+      (key == 'x' ? o.scale_hypotheses.max_upsample : o.scale_hypotheses.min_side_cells) = value;
+      end = std::min(end, at);
+    }
+    o.scale_hypotheses.upsample_below_px = std::stoi(image.substr(2, end - 2));
+    return c;
+  }
   if (image == "noscale") {
     o.scale_hypotheses.enabled = false;
     return c;

@@ -181,8 +181,8 @@ int main(int argc, char** argv) {
     write_report(out_dir + "/report.json", report, matcher_name);
     std::vector<bool> mask(report.tentative_2d.size(), false);
     for (std::size_t i : report.inlier_indices_2d) mask[i] = true;
-    // The winner's pixels are those of its (possibly coarsened) images: coarse pixel i is centred on
-    // full-resolution pixel f i + (f - 1) / 2.
+    // The winner's pixels are those of its (possibly coarsened or enlarged) images: image pixel i is
+    // centred on full-resolution pixel f i + (f - 1) / 2, f = the image factor (a fraction when enlarged).
     PointMatches drawn = report.tentative_2d;
     const double fm = report.master_image_factor, fs = report.secondary_image_factor;
     for (PointMatch& m : drawn) {

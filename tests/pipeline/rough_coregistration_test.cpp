@@ -385,6 +385,7 @@ TEST_CASE("rough_coregistration: a 4x resolution gap needs the scale hypotheses"
   const auto c = diachron::make_coregistration_case(diachron::coarsen_dsm(world, 4), world, case_options, 5);
   diachron::RoughCoregistrationOptions without;
   without.scale_hypotheses.enabled = false;
+  without.scale_hypotheses.upsample_below_px = 0;  // neither coarser levels nor enlarged images
   const auto failed = diachron::rough_coregistration(c.master, c.secondary, sift_matcher(), without);
   INFO("without: " << failed.message);
   CHECK_FALSE(failed.success);
@@ -405,10 +406,12 @@ TEST_CASE("rough_coregistration: a 4x resolution gap needs the scale hypotheses"
   CHECK(winner.success);
   CHECK(winner.hypothesis.master_level == 0);
   CHECK(winner.hypothesis.secondary_level >= 1);
-  CHECK(report.secondary_image_factor == winner.hypothesis.secondary_factor());
+  CHECK(report.secondary_image_factor ==
+        Approx(static_cast<double>(winner.hypothesis.secondary_factor()) / winner.secondary_upsample));
   CHECK(winner.inliers >= winner.required_inliers);
-  CHECK(winner.secondary_width == (world.width() + winner.hypothesis.secondary_factor() - 1) /
-                                      winner.hypothesis.secondary_factor());
+  CHECK(winner.secondary_width == winner.secondary_upsample *
+                                      ((world.width() + winner.hypothesis.secondary_factor() - 1) /
+                                       winner.hypothesis.secondary_factor()));
   for (const auto& h : report.scale_hypotheses) CHECK(h.seconds >= 0.0);
 }
 
@@ -438,4 +441,35 @@ TEST_CASE("scale hypotheses: the plan, and coarsen_dsm keeps the ground", "[pipe
   CHECK(coarse.heights()(1, 1) == Approx(mean).epsilon(1e-6));
   const Eigen::Vector2d centre = world.pixel_to_world({5.5, 5.5});
   CHECK((coarse.pixel_to_world({1.0, 1.0}) - centre).norm() < 1e-6);
+}
+
+TEST_CASE("scale hypotheses: small DSM images are enlarged on the same ground", "[pipeline]") {
+  // The factor: the smallest power of two that brings the shorter side to the floor, capped.
+  CHECK(diachron::upsample_factor(200, 160, 4) == 1);
+  CHECK(diachron::upsample_factor(100, 160, 4) == 2);
+  CHECK(diachron::upsample_factor(30, 160, 4) == 4);  // 120 px: capped at 4
+  CHECK(diachron::upsample_factor(30, 0, 4) == 1);    // 0: never
+  diachron::ScaleHypothesesOptions options;
+  options.max_upsample = 3;
+  CHECK_THROWS_AS(options.check(), diachron::Error);
+
+  // A ramp along x: bilinear enlargement keeps it a ramp, and every enlarged pixel's ground (through
+  // upsample_transform) is where the small image has that value.
+  diachron::Raster<std::uint8_t> small(6, 4, 0);
+  for (int y = 0; y < small.height(); ++y)
+    for (int x = 0; x < small.width(); ++x) small(x, y) = static_cast<std::uint8_t>(40 * x + 3 * y);
+  const diachron::GeoTransform g{{1000.0, 8.0, 2.0, 5000.0, 1.5, -7.0}};  // rotated, sheared cells
+  const int f = 4;
+  const auto big = diachron::upsample_bilinear(small, f);
+  const diachron::GeoTransform gb = diachron::upsample_transform(g, f);
+  REQUIRE(big.width() == 24);
+  REQUIRE(big.height() == 16);
+  for (int y = 2; y < 14; ++y)  // away from the clamped borders
+    for (int x = 2; x < 22; ++x) {
+      const Eigen::Vector2d p = g.world_to_pixel(gb.pixel_to_world(Eigen::Vector2d(x, y)));
+      CHECK(big(x, y) == Approx(40.0 * p.x() + 3.0 * p.y()).margin(0.51));
+    }
+  // The corners of the footprint are unchanged.
+  CHECK((gb.pixel_to_world({-0.5, -0.5}) - g.pixel_to_world({-0.5, -0.5})).norm() < 1e-9);
+  CHECK((gb.pixel_to_world({23.5, 15.5}) - g.pixel_to_world({5.5, 3.5})).norm() < 1e-9);
 }

@@ -116,7 +116,8 @@ struct RoughCoregistrationOptions {
   /// resolution gaps (a 10 m historical DSM against a 2 m modern one): measured in
   /// docs/rough-coregistration.md, a 4 to 8 times gap failed without them. DSMs without a gap
   /// succeed at the first hypothesis and cost nothing more; failures cost every hypothesis (each
-  /// level about a quarter of the one before, the unchanged DSM's features extracted once).
+  /// level about a quarter of the one before, the unchanged DSM's features extracted once). DSM
+  /// images under 160 px on their shorter side are enlarged before matching (upsample_below_px).
   ScaleHypothesesOptions scale_hypotheses{};
 
   /// 2D similarity RANSAC on DSM-image pixels: 10 px and 1000 iterations as the paper and MicMac.
@@ -218,6 +219,9 @@ struct ScaleHypothesisResult {
   ScaleHypothesis hypothesis;  ///< which DSM was coarsened, and how much
   int master_width = 0, master_height = 0;        ///< the master image matched, pixels
   int secondary_width = 0, secondary_height = 0;  ///< the secondary image matched, pixels
+  /// How many times each image was enlarged after coarsening (ScaleHypothesesOptions::
+  /// upsample_below_px): image pixels per coarsened DSM cell along each axis, 1 when not enlarged.
+  int master_upsample = 1, secondary_upsample = 1;
   bool success = false;        ///< this hypothesis alone gave a co-registration
   std::size_t matches = 0;     ///< tentative matches of its best rotation
   std::size_t inliers = 0;     ///< 2D inliers of its best rotation
@@ -247,8 +251,12 @@ struct RoughCoregistrationReport {
   /// image pixels (image_similarity, tentative_2d, inliers_2d) are pixels of those images.
   std::vector<ScaleHypothesisResult> scale_hypotheses;
   int best_scale_hypothesis = -1;  ///< index into scale_hypotheses of the chosen one, -1 when none
-  int master_image_factor = 1;     ///< the chosen master image's cell / the master DSM's cell
-  int secondary_image_factor = 1;  ///< the same for the secondary
+  /// The chosen master image's pixel / the master DSM's cell, along each axis: the coarsening
+  /// factor over the enlargement (ScaleHypothesesOptions::upsample_below_px), e.g. 4 for a DSM
+  /// coarsened 4 times, 0.5 for one enlarged twice. Image pixel p is DSM pixel
+  /// factor (p + 0.5) - 0.5 (pixel centres, both grids on the same corner).
+  double master_image_factor = 1.0;
+  double secondary_image_factor = 1.0;  ///< the same for the secondary
 
   std::size_t tile_pairs = 0;          ///< tile pairs matched per hypothesis
   std::size_t matches_2d = 0;          ///< tentative matches of the winner
@@ -629,6 +637,13 @@ RoughCoregistrationReport rough_coregistration(const Dsm& master, const Dsm& sec
       if (!slot) {
         Dsm coarse = coarsen_dsm(dsm, 1 << k);
         GeoImage image{make_dsm_image(coarse, options), coarse.transform()};
+        const int up = upsample_factor(std::min(image.image.width(), image.image.height()),
+                                       options.scale_hypotheses.upsample_below_px,
+                                       options.scale_hypotheses.max_upsample);
+        if (up > 1) {
+          image.image = upsample_bilinear(image.image, up);
+          image.transform = upsample_transform(image.transform, up);
+        }
         slot.emplace(std::move(coarse), std::move(image));
       }
       return *slot;
@@ -649,6 +664,8 @@ RoughCoregistrationReport rough_coregistration(const Dsm& master, const Dsm& sec
       result.master_height = m.second.image.height();
       result.secondary_width = s.second.image.width();
       result.secondary_height = s.second.image.height();
+      result.master_upsample = m.second.image.width() / m.first.width();
+      result.secondary_upsample = s.second.image.width() / s.first.width();
       result.success = r.success;
       result.matches = r.matches_2d;
       result.inliers = r.inliers_2d.size();
@@ -656,8 +673,8 @@ RoughCoregistrationReport rough_coregistration(const Dsm& master, const Dsm& sec
       result.seconds = detail::seconds_since(t0);
       result.message = r.message;
       results.push_back(result);
-      r.master_image_factor = h.master_factor();
-      r.secondary_image_factor = h.secondary_factor();
+      r.master_image_factor = static_cast<double>(h.master_factor()) / result.master_upsample;
+      r.secondary_image_factor = static_cast<double>(h.secondary_factor()) / result.secondary_upsample;
       // The winner: a success before any failure; among successes (or failures), the largest
       // margin over the significance bound, in inliers; ties go to the earlier hypothesis.
       const auto margin = [](const RoughCoregistrationReport& x) {
@@ -674,7 +691,7 @@ RoughCoregistrationReport rough_coregistration(const Dsm& master, const Dsm& sec
     best.scale_hypotheses = std::move(results);
     best.best_scale_hypothesis = best.success ? static_cast<int>(best_index) : -1;
     if (!best.success) {
-      best.master_image_factor = best.secondary_image_factor = 1;
+      best.master_image_factor = best.secondary_image_factor = 1.0;
       if (best.scale_hypotheses.size() > 1)
         best.message = "no scale hypothesis succeeded (" + std::to_string(best.scale_hypotheses.size()) +
                        " tried); the closest: " + best.message;
