@@ -15,12 +15,15 @@
 #include <charconv>
 #include <cmath>
 #include <cstddef>
-#include <filesystem>
 #include <fstream>
 #include <string>
 #include <string_view>
 #include <system_error>
 #include <vector>
+
+#include <dirent.h>
+#include <sys/stat.h>
+#include <sys/types.h>
 
 #include <Eigen/Core>
 
@@ -80,6 +83,43 @@ inline void check_homol_image_name(const std::string& name) {
                  "Homol image name '" << name << "' must be non-empty and contain no '/'");
 }
 
+// POSIX rather than std::filesystem: the library's other file code is POSIX too, and GCC's
+// <filesystem> inline functions refer to libstdc++ internals a program cannot link against when
+// every inline function is emitted (the headers/alone test).
+inline bool is_homol_directory(const std::string& path) {
+  struct stat info {};
+  return ::stat(path.c_str(), &info) == 0 && S_ISDIR(info.st_mode);
+}
+
+inline bool is_homol_regular_file(const std::string& path) {
+  struct stat info {};
+  return ::stat(path.c_str(), &info) == 0 && S_ISREG(info.st_mode);
+}
+
+// mkdir -p: every missing folder of `path`.
+inline void make_homol_directories(const std::string& path) {
+  for (std::size_t slash = path.find('/', 1);; slash = path.find('/', slash + 1)) {
+    const std::string prefix = slash == std::string::npos ? path : path.substr(0, slash);
+    if (!prefix.empty() && !is_homol_directory(prefix)) ::mkdir(prefix.c_str(), 0755);
+    if (slash == std::string::npos) break;
+  }
+  DIACHRON_CHECK(is_homol_directory(path), "write_homol: cannot create the folder '" << path << "'");
+}
+
+// The entries of a folder except . and .., sorted; empty when it cannot be read.
+inline std::vector<std::string> homol_folder_entries(const std::string& path) {
+  std::vector<std::string> out;
+  if (DIR* dir = ::opendir(path.c_str())) {
+    while (const dirent* entry = ::readdir(dir)) {
+      const std::string name = entry->d_name;
+      if (name != "." && name != "..") out.push_back(name);
+    }
+    ::closedir(dir);
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
 inline void append_homol_number(std::string& line, double v) {
   char buffer[32];
   const auto [end, error] = std::to_chars(buffer, buffer + sizeof buffer, v);
@@ -114,9 +154,9 @@ inline void write_homol_file(const std::string& path, const PointMatches& matche
 inline std::string homol_file_path(const std::string& homol_dir, const std::string& image1, const std::string& image2) {
   detail::check_homol_image_name(image1);
   detail::check_homol_image_name(image2);
-  return (std::filesystem::path(homol_dir) / (std::string(detail::kHomolPastisPrefix) + image1) /
-          (image2 + std::string(detail::kHomolExtension)))
-      .string();
+  std::string dir = homol_dir;
+  if (!dir.empty() && dir.back() != '/') dir += '/';
+  return dir + std::string(detail::kHomolPastisPrefix) + image1 + "/" + image2 + std::string(detail::kHomolExtension);
 }
 
 inline void write_homol(const std::string& homol_dir, const std::string& image1, const std::string& image2,
@@ -127,13 +167,7 @@ inline void write_homol(const std::string& homol_dir, const std::string& image1,
                    "write_homol: match " << i << " has a non-finite coordinate");
   const std::string forward = homol_file_path(homol_dir, image1, image2);
   const std::string backward = homol_file_path(homol_dir, image2, image1);
-  for (const std::string& file : {forward, backward}) {
-    std::error_code ec;
-    const std::filesystem::path dir = std::filesystem::path(file).parent_path();
-    std::filesystem::create_directories(dir, ec);
-    DIACHRON_CHECK(!ec && std::filesystem::is_directory(dir),
-                   "write_homol: cannot create the folder '" << dir.string() << "': " << ec.message());
-  }
+  for (const std::string& file : {forward, backward}) detail::make_homol_directories(file.substr(0, file.rfind('/')));
   detail::write_homol_file(forward, matches, false, pixel_shift_px);
   detail::write_homol_file(backward, matches, true, pixel_shift_px);
 }
@@ -180,24 +214,23 @@ inline PointMatches read_homol(const std::string& homol_dir, const std::string& 
 }
 
 inline std::vector<HomolPair> list_homol_pairs(const std::string& homol_dir) {
-  namespace fs = std::filesystem;
-  std::error_code ec;
-  DIACHRON_CHECK(fs::is_directory(homol_dir, ec), "list_homol_pairs: '" << homol_dir << "' is not a folder");
+  DIACHRON_CHECK(detail::is_homol_directory(homol_dir), "list_homol_pairs: '" << homol_dir << "' is not a folder");
+  const std::string root = homol_dir.back() == '/' ? homol_dir : homol_dir + "/";
   std::vector<HomolPair> out;
-  for (const fs::directory_entry& pastis : fs::directory_iterator(homol_dir)) {
-    const std::string dir_name = pastis.path().filename().string();
-    if (!pastis.is_directory() || dir_name.size() <= detail::kHomolPastisPrefix.size() ||
-        dir_name.compare(0, detail::kHomolPastisPrefix.size(), detail::kHomolPastisPrefix) != 0)
+  for (const std::string& dir_name : detail::homol_folder_entries(homol_dir)) {
+    if (dir_name.size() <= detail::kHomolPastisPrefix.size() ||
+        dir_name.compare(0, detail::kHomolPastisPrefix.size(), detail::kHomolPastisPrefix) != 0 ||
+        !detail::is_homol_directory(root + dir_name))
       continue;
     const std::string image1 = dir_name.substr(detail::kHomolPastisPrefix.size());
-    for (const fs::directory_entry& file : fs::directory_iterator(pastis.path())) {
-      const std::string name = file.path().filename().string();
-      if (!file.is_regular_file() || name.size() <= detail::kHomolExtension.size() ||
+    for (const std::string& name : detail::homol_folder_entries(root + dir_name)) {
+      const std::string path = root + dir_name + "/" + name;
+      if (name.size() <= detail::kHomolExtension.size() ||
           name.compare(name.size() - detail::kHomolExtension.size(), detail::kHomolExtension.size(),
-                       detail::kHomolExtension) != 0)
+                       detail::kHomolExtension) != 0 ||
+          !detail::is_homol_regular_file(path))
         continue;
-      out.push_back(
-          HomolPair{image1, name.substr(0, name.size() - detail::kHomolExtension.size()), file.path().string()});
+      out.push_back(HomolPair{image1, name.substr(0, name.size() - detail::kHomolExtension.size()), path});
     }
   }
   std::sort(out.begin(), out.end(), [](const HomolPair& a, const HomolPair& b) {
