@@ -126,7 +126,9 @@ struct ImagePair {
   double overlap = 0.0;
 };
 
-std::vector<ImagePair> overlapping_pairs(const Scene& scene, const MatchTruthScorer& truth) {
+// The pairs the truth says overlap (the true cameras and surface), not overlapping_pairs() of the
+// library, which works from the estimated frames and DSMs: this bench judges matchers, not that.
+std::vector<ImagePair> truly_overlapping_pairs(const Scene& scene, const MatchTruthScorer& truth) {
   std::vector<ImagePair> out;
   const SyntheticEpoch& e1 = scene.epochs[0];
   for (std::size_t i = 0; i < e1.images.size(); ++i)
@@ -433,7 +435,7 @@ int main(int argc, char** argv) {
         if (s >= match_seeds) continue;
 
         const MatchTruthScorer truth(scene);
-        std::vector<ImagePair> pairs = overlapping_pairs(scene, truth);
+        std::vector<ImagePair> pairs = truly_overlapping_pairs(scene, truth);
         if (args.max_pairs > 0 && pairs.size() > static_cast<std::size_t>(args.max_pairs)) {
           // Keep an even spread of the pairs rather than the first image's.
           std::vector<ImagePair> kept;

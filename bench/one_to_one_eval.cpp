@@ -143,16 +143,14 @@ int main(int argc, char** argv) {
       const Helmert3 helmert = scene.epoch2_from_epoch1();
       const MatchTruthScorer truth(scene);
 
-      std::vector<FootprintImage<Frame<FraserAffine>>> m_images, s_images;
-      for (std::size_t i = 0; i < e1.images.size(); ++i) m_images.push_back(make_footprint_image(e1.estimated_frame(i)));
-      for (std::size_t j = 0; j < e2.images.size(); ++j) s_images.push_back(make_footprint_image(e2.estimated_frame(j)));
       OverlappingPairsOptions pair_options;
       pair_options.min_overlap_fraction = 0.1;
-      // The SfM DSMs cover the multi-view part of each block only: an image at the block's edge
-      // sees much ground without DSM, and its footprint is the part over DSM.
-      pair_options.footprint.min_hit_fraction = 0.25;
       pair_options.threads = args.threads;
-      const OverlappingPairsResult pairs = overlapping_pairs(m_images, e1.dsm, s_images, e2.dsm, helmert, pair_options);
+      // The SfM DSMs cover the multi-view part of each block only; the footprints' plane fallback
+      // (FootprintOptions::plane_fallback, on) keeps the images at the blocks' edges.
+      const OverlappingPairsResult pairs =
+          overlapping_pairs(make_footprint_images(e1.estimated_frames()), e1.dsm,
+                            make_footprint_images(e2.estimated_frames()), e2.dsm, helmert, pair_options);
       footprints_invalid += pairs.invalid_master_footprints + pairs.invalid_secondary_footprints;
       candidate_pairs += pairs.candidate_pairs;
       overlapping += pairs.overlapping_pairs;

@@ -231,21 +231,13 @@ int main(int argc, char** argv) {
                                 e2.dsm.min_cell_size());
       std::fprintf(stderr, "  rough co-registration: RMS %.2f epoch-2 DSM cells\n", coreg_rms_cells.back());
 
-      std::vector<Frame<FraserAffine>> frames1, frames2;
-      std::vector<FootprintImage<Frame<FraserAffine>>> footprints1, footprints2;
-      for (std::size_t i = 0; i < e1.images.size(); ++i) {
-        frames1.push_back(e1.estimated_frame(i));
-        footprints1.push_back(make_footprint_image(frames1.back()));
-      }
-      for (std::size_t i = 0; i < e2.images.size(); ++i) {
-        frames2.push_back(e2.estimated_frame(i));
-        footprints2.push_back(make_footprint_image(frames2.back()));
-      }
+      const std::vector<Frame<FraserAffine>> frames1 = e1.estimated_frames(), frames2 = e2.estimated_frames();
       OverlappingPairsOptions overlap_options;
       overlap_options.min_overlap_fraction = args.min_overlap;
       overlap_options.threads = args.threads;
       const OverlappingPairsResult overlap =
-          overlapping_pairs(footprints1, e1.dsm, footprints2, e2.dsm, rough.epoch2_from_epoch1, overlap_options);
+          overlapping_pairs(make_footprint_images(frames1), e1.dsm, make_footprint_images(frames2), e2.dsm,
+                            rough.epoch2_from_epoch1, overlap_options);
       std::vector<ImagePairOverlap> pairs = overlap.pairs;
       std::sort(pairs.begin(), pairs.end(), [](const ImagePairOverlap& a, const ImagePairOverlap& b) {
         return a.master != b.master ? a.master < b.master : a.secondary < b.secondary;

@@ -196,17 +196,11 @@ int main(int argc, char** argv) {
 
     // 2. Overlapping pairs through the DSMs, epoch 1's footprints moved by the Helmert.
     std::vector<Frame<FraserAffine>> frames1, frames2;
-    std::vector<FootprintImage<Frame<FraserAffine>>> footprints1, footprints2;
-    for (const EpochImage& im : e1.images) {
-      frames1.push_back(im.frame);
-      footprints1.push_back(make_footprint_image(im.frame));
-    }
-    for (const EpochImage& im : e2.images) {
-      frames2.push_back(im.frame);
-      footprints2.push_back(make_footprint_image(im.frame));
-    }
+    for (const EpochImage& im : e1.images) frames1.push_back(im.frame);
+    for (const EpochImage& im : e2.images) frames2.push_back(im.frame);
     overlap_options.threads = threads;
-    overlap = overlapping_pairs(footprints1, e1.dsm, footprints2, e2.dsm, rough.epoch2_from_epoch1, overlap_options);
+    overlap = overlapping_pairs(make_footprint_images(frames1), e1.dsm, make_footprint_images(frames2), e2.dsm,
+                                rough.epoch2_from_epoch1, overlap_options);
     std::printf("overlapping pairs: %zu of %zu candidates (%s)\n", overlap.pairs.size(), overlap.candidate_pairs,
                 overlap.message.c_str());
     if (overlap.pairs.empty()) {

@@ -14,22 +14,14 @@
 #include <diachron/synth/scene.hpp>
 #include <diachron/terrain/ray_dsm_intersection.hpp>
 
+#include "support/scenes.hpp"
+
 using namespace diachron;
 
 namespace {
 
 const Scene& scene() {
-  static const Scene s = [] {
-    SceneOptions o;
-    o.seed = 4;
-    for (EpochOptions& e : o.epochs) {
-      e.rows = 1;
-      e.columns = 2;
-      e.tie_points = 0;
-    }
-    o.check_points = 40;
-    return generate_scene(o);
-  }();
+  static const Scene s = generate_scene(diachron::test::small_scene_options(4, 0, 40));
   return s;
 }
 

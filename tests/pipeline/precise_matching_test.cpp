@@ -17,6 +17,8 @@
 #include <diachron/vision/extractor_pair_matcher.hpp>
 #include <diachron/vision/sift.hpp>
 
+#include "support/scenes.hpp"
+
 using namespace diachron;
 
 namespace {
@@ -32,29 +34,16 @@ struct Fixture {
 const Fixture& fixture() {
   static const Fixture f = [] {
     Fixture out;
-    SceneOptions o;
-    o.seed = 5;
-    for (EpochOptions& e : o.epochs) {
-      e.rows = 1;
-      e.columns = 2;
-      e.tie_points = 20;
-    }
-    o.check_points = 5;
-    out.scene = generate_scene(o);
-    std::vector<FootprintImage<Frame<FraserAffine>>> f1, f2;
+    out.scene = generate_scene(diachron::test::small_scene_options(5, 20, 5));
     const SyntheticEpoch& e1 = out.scene.epochs[0];
     const SyntheticEpoch& e2 = out.scene.epochs[1];
-    for (std::size_t i = 0; i < e1.images.size(); ++i) {
-      out.frames1.push_back(e1.estimated_frame(i));
-      f1.push_back(make_footprint_image(out.frames1.back()));
-    }
-    for (std::size_t i = 0; i < e2.images.size(); ++i) {
-      out.frames2.push_back(e2.estimated_frame(i));
-      f2.push_back(make_footprint_image(out.frames2.back()));
-    }
+    out.frames1 = e1.estimated_frames();
+    out.frames2 = e2.estimated_frames();
     OverlappingPairsOptions po;
     po.min_overlap_fraction = 0.2;
-    out.pairs = overlapping_pairs(f1, e1.dsm, f2, e2.dsm, out.scene.epoch2_from_epoch1(), po).pairs;
+    out.pairs = overlapping_pairs(make_footprint_images(out.frames1), e1.dsm, make_footprint_images(out.frames2),
+                                  e2.dsm, out.scene.epoch2_from_epoch1(), po)
+                    .pairs;
     return out;
   }();
   return f;
@@ -121,8 +110,8 @@ TEST_CASE("guided precise matching: correct matches on every overlapping pair, w
     CHECK(p.ncc.size() == p.grounded.size());
     CHECK(p.matches.size() == p.ncc.kept());
   }
-  CHECK(report.final_matches == judge(f, report).matches);
   const Judged j = judge(f, report);
+  CHECK(report.final_matches == j.matches);
   INFO(j.within3 << " of " << j.decidable << " decidable final matches within 3 px");
   CHECK(j.matches >= 40);
   CHECK(j.within3 >= 0.95 * static_cast<double>(j.decidable));

@@ -26,6 +26,7 @@
 #include "support/colmap_binary.hpp"
 #include "support/colmap_projection.hpp"
 #include "support/rasters.hpp"
+#include "support/scenes.hpp"
 #endif
 
 using namespace diachron;
@@ -84,17 +85,7 @@ std::string read_text(const std::string& path) {
 
 // Generated once for all test cases (the sanitizer build runs them too).
 const Scene& small_scene() {
-  static const Scene scene = [] {
-    SceneOptions o;
-    o.seed = 21;
-    for (EpochOptions& e : o.epochs) {
-      e.rows = 1;
-      e.columns = 2;
-      e.tie_points = 80;
-    }
-    o.check_points = 20;
-    return generate_scene(o);
-  }();
+  static const Scene scene = generate_scene(diachron::test::small_scene_options(21, 80, 20));
   return scene;
 }
 

@@ -27,10 +27,8 @@
 
 namespace diachron {
 
-/// MicMac pixel coordinate minus diachron pixel coordinate, px. Both put integer coordinates at
-/// pixel centres (MicMac images are indexed from the top-left pixel's centre); pass another
-/// value to the conversions if your MicMac data use the corner convention.
-inline constexpr double kMicmacPixelShift = 0.0;
+// kMicmacPixelShift, MicMac's pixel convention against diachron's, is in core/types.hpp: the
+// camera conversions here and the Homol tie points (io/homol.hpp) share it.
 
 /// MicMac's CalibrationInternConique with a ModPhgrStd (Fraser) distortion, DistM2C direction
 /// (ideal -> observed). All lengths in pixels.

@@ -9,6 +9,12 @@ namespace diachron {
 /// pi, so that no code depends on the non-standard M_PI.
 inline constexpr double kPi = 3.14159265358979323846;
 
+/// MicMac pixel coordinate minus diachron pixel coordinate, px. Both put integer coordinates at
+/// pixel centres (MicMac images are indexed from the top-left pixel's centre), for images
+/// (camera/micmac_conversion.hpp) and tie points (io/homol.hpp) alike; pass another value to those
+/// functions if your MicMac data use the corner convention.
+inline constexpr double kMicmacPixelShift = 0.0;
+
 using Vec2 = Eigen::Vector2d;
 using Vec3 = Eigen::Vector3d;
 using Mat2 = Eigen::Matrix2d;

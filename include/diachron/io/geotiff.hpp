@@ -128,6 +128,18 @@ inline std::string crs_to_wkt(const std::string& crs, const std::string& path) {
   return out;
 }
 
+// Opens `path` read-only as a raster; throws naming it (as a `what`, e.g. "DSM") when it is missing
+// or GDAL cannot open it. Call it inside a QuietGdalErrors scope, whose last message it quotes.
+inline GdalDatasetPtr open_raster(const std::string& path, const char* what) {
+  gdal_register_once();
+  DIACHRON_CHECK(file_exists(path), "cannot read " << what << " '" << path << "': no such file");
+  GdalDatasetPtr ds(GDALDataset::FromHandle(
+      GDALOpenEx(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY, nullptr, nullptr, nullptr)));
+  DIACHRON_CHECK(ds != nullptr, "cannot read " << what << " '" << path << "': not a raster GDAL can open"
+                                                << QuietGdalErrors::last_message());
+  return ds;
+}
+
 }  // namespace detail
 
 /// Reads a single-band GeoTIFF (or any raster GDAL reads: float or integer samples) into a Dsm.
@@ -139,13 +151,8 @@ inline std::string crs_to_wkt(const std::string& crs, const std::string& path) {
 /// allowed), or cannot be read.
 inline Dsm read_geotiff_dsm(const std::string& path, const GeoTiffReadOptions& options = {}) {
   options.check();
-  detail::gdal_register_once();
-  DIACHRON_CHECK(detail::file_exists(path), "cannot read DSM '" << path << "': no such file");
   const detail::QuietGdalErrors quiet;
-  detail::GdalDatasetPtr ds(GDALDataset::FromHandle(
-      GDALOpenEx(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY, nullptr, nullptr, nullptr)));
-  DIACHRON_CHECK(ds != nullptr, "cannot read DSM '" << path << "': not a raster GDAL can open"
-                                                    << detail::QuietGdalErrors::last_message());
+  const detail::GdalDatasetPtr ds = detail::open_raster(path, "DSM");
   const int bands = ds->GetRasterCount();
   DIACHRON_CHECK(bands >= 1, "cannot read DSM '" << path << "': the file has no raster band");
   if (options.band == 0)
@@ -241,13 +248,8 @@ inline void write_geotiff_dsm(const Dsm& dsm, const std::string& path, const Geo
 /// an epoch folder's images. No georeferencing is needed. Throws diachron::Error naming the file
 /// when it is missing, cannot be opened, has several bands, or its samples are not 8-bit.
 inline Raster<std::uint8_t> read_image_u8(const std::string& path) {
-  detail::gdal_register_once();
-  DIACHRON_CHECK(detail::file_exists(path), "cannot read image '" << path << "': no such file");
   const detail::QuietGdalErrors quiet;
-  detail::GdalDatasetPtr ds(GDALDataset::FromHandle(
-      GDALOpenEx(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY, nullptr, nullptr, nullptr)));
-  DIACHRON_CHECK(ds != nullptr, "cannot read image '" << path << "': not a raster GDAL can open"
-                                                      << detail::QuietGdalErrors::last_message());
+  const detail::GdalDatasetPtr ds = detail::open_raster(path, "image");
   DIACHRON_CHECK(ds->GetRasterCount() == 1,
                  "cannot read image '" << path << "': it has " << ds->GetRasterCount() << " bands, one (grey) expected");
   GDALRasterBand* band = ds->GetRasterBand(1);

@@ -28,13 +28,14 @@
 #include <Eigen/Core>
 
 #include <diachron/core/error.hpp>
+#include <diachron/core/types.hpp>
 #include <diachron/matching/point_match.hpp>
 
 namespace diachron {
 
-/// MicMac Homol pixel coordinate minus diachron pixel coordinate, px: 0, since both put (0, 0) at
-/// the centre of the top-left pixel (the same value as kMicmacPixelShift of the camera conversions).
-inline constexpr double kMicmacHomolPixelShift = 0.0;
+/// MicMac Homol pixel coordinate minus diachron pixel coordinate, px: Homol files are in MicMac's
+/// image pixels, so this is MicMac's one pixel convention (core/types.hpp), 0.
+inline constexpr double kMicmacHomolPixelShift = kMicmacPixelShift;
 
 /// One tie-point file of a Homol folder: `path` holds the tie points of `image1` (first two
 /// columns) with `image2` (last two).

@@ -259,6 +259,15 @@ FootprintImage<Frame> make_footprint_image(const Frame& frame) {
   return FootprintImage<Frame>{frame, frame.camera().width(), frame.camera().height()};
 }
 
+/// make_footprint_image() of every frame, in order: the images of one epoch for overlapping_pairs().
+template <class Frame, std::enable_if_t<detail::has_camera_size<Frame>::value, int> = 0>
+std::vector<FootprintImage<Frame>> make_footprint_images(const std::vector<Frame>& frames) {
+  std::vector<FootprintImage<Frame>> out;
+  out.reserve(frames.size());
+  for (const Frame& frame : frames) out.push_back(make_footprint_image(frame));
+  return out;
+}
+
 /// Options of image_footprint() and overlapping_pairs().
 struct FootprintOptions {
   /// Rays cast per image edge between its two corners (>= 0, <= 10000), besides the 4 corners: the

@@ -265,6 +265,13 @@ struct SyntheticEpoch {
   Frame<FraserAffine> epoch_frame(std::size_t i) const { return {camera, images.at(i).pose_epoch}; }
   /// Image i as the SfM estimated it (estimated camera, estimated pose, epoch frame).
   Frame<FraserAffine> estimated_frame(std::size_t i) const { return {estimated_camera, images.at(i).estimated_pose}; }
+  /// Every image as the SfM estimated it, in image order (what a user of the epoch has).
+  std::vector<Frame<FraserAffine>> estimated_frames() const {
+    std::vector<Frame<FraserAffine>> out;
+    out.reserve(images.size());
+    for (std::size_t i = 0; i < images.size(); ++i) out.push_back(estimated_frame(i));
+    return out;
+  }
 };
 
 }  // namespace diachron
