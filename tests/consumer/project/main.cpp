@@ -1,10 +1,19 @@
 // An outside project: find_package(diachron), link diachron::core, estimate a Helmert robustly.
 // Built against every installed tree the consumer tests make, including one without OpenCV, Ceres
-// and GDAL: the umbrella header and the Helmert RANSAC need Eigen and nanoflann only.
+// and GDAL: the Helmert RANSAC needs Eigen and nanoflann only. With CONSUMER_UMBRELLA (the consumer
+// of every component) it includes the umbrella header, which must not pull OpenCV, Ceres or GDAL
+// either; the other consumers include only what they use, since parsing the umbrella is most of a
+// consumer's build and one check of it is enough.
 #include <cstdio>
 #include <vector>
 
+#ifdef CONSUMER_UMBRELLA
 #include <diachron/diachron.hpp>
+#else
+#include <diachron/core/random.hpp>
+#include <diachron/geometry/rotation.hpp>
+#include <diachron/robust/robust_estimation.hpp>
+#endif
 
 #if defined(CV_VERSION) || defined(CERES_VERSION_STRING) || defined(GDAL_RELEASE_NAME)
 #error "the Helmert RANSAC pulled in OpenCV, Ceres or GDAL"
