@@ -12,6 +12,7 @@
 /// and the extra params (distortion) but not the principal point; it has no affine (B1 via fx != fy
 /// only when the camera is OPENCV-like, no shear). It needs neither a display nor a GPU.
 
+#include <algorithm>
 #include <chrono>
 #include <cstddef>
 #include <cstdint>

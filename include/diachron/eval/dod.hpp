@@ -1,6 +1,6 @@
 #pragma once
 /// @file
-/// Sparse DoD (difference of DSMs, paper section 4.5): 3D points (e.g. epoch-1 tie points
+/// Sparse DoD (difference of DSMs, paper section 4.6): 3D points (e.g. epoch-1 tie points
 /// triangulated after the adjustment, moved into epoch 2's frame) against a DSM of the same frame
 /// (epoch 2's), dZ = Z_point - Z_dsm(X, Y) with the DSM's bilinear height, summarised as the paper's
 /// DoD table (mu, sigma, |mu| = mean |dZ|) plus median and NMAD, which real scene changes
