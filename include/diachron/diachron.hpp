@@ -71,8 +71,12 @@
 #include <diachron/matching/point_match.hpp>
 #include <diachron/matching/rotation_hypotheses.hpp>
 #include <diachron/matching/scale_hypotheses.hpp>
+#include <diachron/eval/check_points.hpp>
 #include <diachron/eval/coregistration_case.hpp>
+#include <diachron/eval/dod.hpp>
+#include <diachron/eval/error_statistics.hpp>
 #include <diachron/eval/match_truth.hpp>
+#include <diachron/eval/scene_check_points.hpp>
 #include <diachron/synth/epoch.hpp>
 #include <diachron/synth/noise.hpp>
 #include <diachron/synth/render.hpp>
