@@ -6,8 +6,6 @@
 #include <memory>
 #include <vector>
 
-#include <catch2/catch.hpp>
-
 #include <Eigen/Core>
 #include <ceres/cost_function.h>
 
@@ -16,6 +14,8 @@
 #include <diachron/camera/frame.hpp>
 #include <diachron/camera/pose.hpp>
 #include <diachron/core/error.hpp>
+
+#include "adjustment/catch_ceres.hpp"  // last: gives CHECK back to Catch after glog
 
 using namespace diachron;
 

@@ -5,11 +5,11 @@
 #include <random>
 #include <vector>
 
-#include <catch2/catch.hpp>
-
 #include <diachron/adjustment/triangulation.hpp>
 #include <diachron/camera/frame.hpp>
 #include <diachron/core/error.hpp>
+
+#include "adjustment/catch_ceres.hpp"  // last: gives CHECK back to Catch after glog
 
 using namespace diachron;
 
