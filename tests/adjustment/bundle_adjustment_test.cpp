@@ -275,3 +275,54 @@ TEST_CASE("bundle_adjust: deterministic", "[adjustment]") {
     CHECK(a.frames[i].pose().centre() == c.frames[i].pose().centre());
   }
 }
+
+TEST_CASE("BundleOptions: Options, defaults and checks", "[adjustment]") {
+  const BundleOptions o;
+  CHECK(o.epochs.empty());
+  CHECK(o.intra_epoch_sigma_px == 1.0);
+  CHECK(o.inter_epoch_sigma_px == 1.0);
+  CHECK(o.loss == RobustLoss::huber);
+  CHECK(o.loss_scale_px == 1.0);
+  CHECK_FALSE(o.staged_intrinsics);
+  CHECK(o.reject_residual_px == 3.0);
+  CHECK(o.rejection_rounds == 1);
+  CHECK(o.min_inter_epoch_tracks == 10);
+  CHECK(o.num_threads == 1);
+  CHECK(o.compute_covariance);
+  CHECK_NOTHROW(o.check());
+  BundleOptions bad;
+  bad.inter_epoch_sigma_px = -1.0;
+  CHECK_THROWS_AS(bad.check(), Error);
+  bad = BundleOptions{};
+  bad.max_iterations = 0;
+  CHECK_THROWS_AS(bad.check(), Error);
+  bad = BundleOptions{};
+  bad.triangulation.min_views = 1;
+  CHECK_THROWS_AS(bad.check(), Error);
+}
+
+TEST_CASE("BundleReport: Report, defaults mean failure", "[adjustment]") {
+  const BundleReport r;
+  CHECK_FALSE(r.success);
+  CHECK(r.solves.empty());
+  CHECK(std::isnan(r.after.all.rms_px));
+  CHECK(std::isnan(r.sigma0));
+  CHECK_FALSE(r.covariance_available);
+  const SolveSummary s;
+  CHECK_FALSE(s.usable);
+  const BundleResult result;
+  CHECK_FALSE(result.report.success);
+  CHECK(result.frames.empty());
+}
+
+TEST_CASE("bundle_adjust: Cauchy loss and unequal sigmas also recover the block", "[adjustment]") {
+  const test::Block b = test::make_block(/*seed=*/7, /*points=*/400);
+  BundleOptions o = reference_fixed();
+  o.loss = RobustLoss::cauchy;
+  o.inter_epoch_sigma_px = 2.0;
+  const BundleResult r = bundle_adjust(block_input(b), o);
+  INFO(r.report.message);
+  REQUIRE(r.report.success);
+  CHECK(epoch0_ground_rms(r.frames, b) < 1.0);
+  CHECK(epoch0_ground_rms(b.estimated, b) > 5.0);
+}
