@@ -9,8 +9,10 @@
 #include <array>
 #include <cmath>
 #include <cstddef>
+#include <limits>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -183,9 +185,9 @@ class BundleProblem {
                                pose_from_block(poses_[i].data()));
   }
 
-  /// Reprojection error (px) of observation k with the current values; +inf when the point is
+  /// Reprojection error (px) of an observation with the current values; +inf when the point is
   /// behind the camera.
-  double residual_px(const Observation& o) {
+  double residual_px(const Observation& o) const {
     SplitAffineReprojectionError error(o.pixel, 1.0);
     const auto i = static_cast<std::size_t>(o.image);
     double r[2];
@@ -196,7 +198,7 @@ class BundleProblem {
   }
 
   /// RMS per epoch and kind over the active observations with the current values.
-  ReprojectionRms rms() {
+  ReprojectionRms rms() const {
     std::vector<double> sum_epoch(static_cast<std::size_t>(epochs_), 0.0);
     ReprojectionRms out;
     out.by_epoch.assign(static_cast<std::size_t>(epochs_), {});
