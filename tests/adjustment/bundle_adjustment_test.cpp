@@ -28,7 +28,7 @@ BundleInput block_input(const test::Block& b) {
 
 BundleOptions reference_fixed() {
   BundleOptions o;
-  o.epochs = {EpochFreedom{}, EpochFreedom{false, false, false}};
+  o.epochs = {EpochFreedom::all_free(), EpochFreedom::all_fixed()};
   return o;
 }
 

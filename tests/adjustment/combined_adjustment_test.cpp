@@ -159,3 +159,16 @@ TEST_CASE("combined_adjustment: the intra-epoch-only control reports too few int
   CHECK((r.epoch1[0].pose().centre() - e1.frames[0].transformed(rough).pose().centre()).norm() < 1e-9);
   CHECK_THROWS_AS(combined_adjustment(e1, e2, {EpochPairMatches{7, 0, {}}}, rough), Error);
 }
+
+TEST_CASE("epoch_pair_matches: carries pair reports over, skipping empty pairs", "[adjustment][pipeline]") {
+  struct PairReport {  // the shape of PrecisePairReport
+    std::size_t master = 0, secondary = 0;
+    PointMatches matches;
+  };
+  const std::vector<PairReport> pairs = {{0, 1, {{Vec2(1, 2), Vec2(3, 4), 0.9}}}, {1, 0, {}}, {2, 3, {{Vec2(5, 6), Vec2(7, 8), 0.8}}}};
+  const std::vector<EpochPairMatches> m = epoch_pair_matches(pairs);
+  REQUIRE(m.size() == 2);
+  CHECK(m[1].master == 2);
+  CHECK(m[1].secondary == 3);
+  CHECK(m[1].matches[0].b == Vec2(7, 8));
+}

@@ -26,6 +26,11 @@ struct EpochFreedom {
   bool poses = true;   ///< the images' poses (angle-axis + centre)
   bool camera = true;  ///< the epoch's cameras [f, cx, cy, K1, K2, K3, P1, P2]
   bool affine = true;  ///< the images' affine parts [B1, B2]
+
+  /// Everything free: co-registration with self-calibration.
+  static EpochFreedom all_free() { return {true, true, true}; }
+  /// Everything fixed: the reference epoch.
+  static EpochFreedom all_fixed() { return {false, false, false}; }
 };
 
 /// Options of bundle_adjust. Defaults: everything free, 1 px sigmas, Huber at 1 px, one solve,

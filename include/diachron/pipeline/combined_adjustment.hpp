@@ -40,6 +40,17 @@ struct EpochPairMatches {
   PointMatches matches;       ///< a: master pixel, b: secondary pixel, px
 };
 
+/// The inter-epoch matches of any list of pair reports with members `master`, `secondary` and
+/// `matches` (PointMatches), such as PreciseMatchingReport::pairs; pairs without matches are
+/// skipped. Generic, so this header needs nothing of the matching stages.
+template <class PairReports>
+std::vector<EpochPairMatches> epoch_pair_matches(const PairReports& pairs) {
+  std::vector<EpochPairMatches> out;
+  for (const auto& pair : pairs)
+    if (!pair.matches.empty()) out.push_back({pair.master, pair.secondary, pair.matches});
+  return out;
+}
+
 /// Options of combined_adjustment.
 struct CombinedAdjustmentOptions {
   /// The bundle adjustment. When `bundle.epochs` is empty the stage fills it: epoch 1 all free,
@@ -115,7 +126,8 @@ inline CombinedAdjustmentResult combined_adjustment(const CombinedEpoch& epoch1,
 
   BundleOptions bundle = options.bundle;
   if (bundle.epochs.empty())
-    bundle.epochs = {EpochFreedom{}, options.fix_reference_epoch ? EpochFreedom{false, false, false} : EpochFreedom{}};
+    bundle.epochs = {EpochFreedom::all_free(),
+                     options.fix_reference_epoch ? EpochFreedom::all_fixed() : EpochFreedom::all_free()};
   BundleResult adjusted = bundle_adjust(input, bundle);
   result.report = std::move(adjusted.report);
   if (!result.report.success) return result;
