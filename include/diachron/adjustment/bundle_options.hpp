@@ -1,0 +1,88 @@
+#pragma once
+/// @file
+/// BundleOptions: what the bundle adjustment frees per epoch, observation weights, robust loss,
+/// staged freeing of the intrinsics, outlier rejection, solver limits and covariance.
+
+#include <cmath>
+#include <cstddef>
+#include <vector>
+
+#include <diachron/adjustment/triangulation.hpp>
+#include <diachron/core/error.hpp>
+
+namespace diachron {
+
+/// Robust loss on each observation's whitened residual (pixels / sigma).
+enum class RobustLoss {
+  none,    ///< plain least squares
+  huber,   ///< quadratic within the scale, linear beyond
+  cauchy,  ///< log(1 + s / scale^2): strongly downweights large residuals
+};
+
+/// Which parameter blocks of the images of one epoch the adjustment may change.
+/// The reference epoch with a known orientation keeps poses and camera fixed, like MicMac's
+/// FrozenPoses; an epoch to be co-registered and self-calibrated frees everything.
+struct EpochFreedom {
+  bool poses = true;   ///< the images' poses (angle-axis + centre)
+  bool camera = true;  ///< the epoch's cameras [f, cx, cy, K1, K2, K3, P1, P2]
+  bool affine = true;  ///< the images' affine parts [B1, B2]
+
+  /// Everything free: co-registration with self-calibration.
+  static EpochFreedom all_free() { return {true, true, true}; }
+  /// Everything fixed: the reference epoch.
+  static EpochFreedom all_fixed() { return {false, false, false}; }
+};
+
+/// Options of bundle_adjust. Defaults: everything free, 1 px sigmas, Huber at 1 px, one solve,
+/// rejection of observations above 3 px then a second solve, covariance of the intrinsics.
+struct BundleOptions {
+  /// Freedom per epoch index (BundleInput::image_epoch); epochs without an entry are all free.
+  std::vector<EpochFreedom> epochs;
+  /// Standard deviation of an intra-epoch tie-point observation, px. > 0.
+  double intra_epoch_sigma_px = 1.0;
+  /// Standard deviation of an inter-epoch match observation, px. > 0. Raise it to trust the
+  /// epochs' own tie points more than the cross-epoch matches.
+  double inter_epoch_sigma_px = 1.0;
+  /// Robust loss and its scale, px (the point where it departs from least squares). scale > 0.
+  RobustLoss loss = RobustLoss::huber;
+  double loss_scale_px = 1.0;
+  /// Free the intrinsics in three solves, as MicMac's Tapas/Campari do: focal and principal
+  /// point, then + K1..K3, then everything (P1, P2, B1, B2). Off: one solve with all free.
+  bool staged_intrinsics = false;
+  /// After a solve, observations whose residual exceeds this are rejected and the problem solved
+  /// again; a track left with fewer than 2 observations is rejected whole. px; 0 disables.
+  double reject_residual_px = 3.0;
+  /// Most reject-and-solve rounds. >= 0.
+  int rejection_rounds = 1;
+  /// Fewest tracks linking two epochs when the images span more than one epoch; fewer gives
+  /// success == false ("too few inter-epoch tracks"). >= 0.
+  std::size_t min_inter_epoch_tracks = 10;
+  /// Ceres iterations per solve. >= 1.
+  int max_iterations = 50;
+  /// Ceres relative cost change that ends a solve. > 0.
+  double function_tolerance = 1e-8;
+  /// Ceres threads; results are deterministic for a given count (1 keeps them identical on
+  /// every machine). >= 1.
+  int num_threads = 1;
+  /// Compute the standard deviations of the intrinsics (ceres::Covariance) after the solve.
+  bool compute_covariance = true;
+  /// Triangulation of tracks given without initial points.
+  TriangulationOptions triangulation;
+
+  void check() const {
+    DIACHRON_CHECK(intra_epoch_sigma_px > 0.0 && std::isfinite(intra_epoch_sigma_px) && inter_epoch_sigma_px > 0.0 &&
+                       std::isfinite(inter_epoch_sigma_px),
+                   "BundleOptions: observation sigmas must be finite and > 0 px");
+    DIACHRON_CHECK(loss_scale_px > 0.0 && std::isfinite(loss_scale_px),
+                   "BundleOptions::loss_scale_px must be > 0, got " << loss_scale_px);
+    DIACHRON_CHECK(reject_residual_px >= 0.0 && std::isfinite(reject_residual_px),
+                   "BundleOptions::reject_residual_px must be >= 0, got " << reject_residual_px);
+    DIACHRON_CHECK(rejection_rounds >= 0, "BundleOptions::rejection_rounds must be >= 0");
+    DIACHRON_CHECK(max_iterations >= 1, "BundleOptions::max_iterations must be >= 1");
+    DIACHRON_CHECK(function_tolerance > 0.0, "BundleOptions::function_tolerance must be > 0");
+    DIACHRON_CHECK(num_threads >= 1, "BundleOptions::num_threads must be >= 1");
+    triangulation.check();
+  }
+};
+
+}  // namespace diachron

@@ -1,0 +1,139 @@
+#pragma once
+/// @file
+/// combined_adjustment(): the paper's combined processing (section 3.3, Algorithm 1) as one
+/// stage. Epoch 1 is moved into the epoch-2 frame by the rough Helmert, intra-epoch tie points and
+/// inter-epoch matches become tracks, the tracks are triangulated, and one bundle adjustment
+/// (epoch 2 fixed by default; epoch 1's poses, camera and affine free) co-registers and
+/// self-calibrates epoch 1. Plain inputs in, adjusted copies and a report out.
+
+#include <cstddef>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include <diachron/adjustment/bundle_adjustment.hpp>
+#include <diachron/adjustment/bundle_options.hpp>
+#include <diachron/adjustment/bundle_report.hpp>
+#include <diachron/adjustment/tracks.hpp>
+#include <diachron/camera/frame.hpp>
+#include <diachron/core/error.hpp>
+#include <diachron/geometry/helmert3.hpp>
+#include <diachron/matching/point_match.hpp>
+
+namespace diachron {
+
+/// One epoch as the combined adjustment takes it, in the epoch's own frame.
+struct CombinedEpoch {
+  /// The images (one camera per epoch: the intrinsics start from the first image's).
+  std::vector<Frame<FraserAffine>> frames;
+  /// Intra-epoch tie points: per point, its observations (image index within this epoch, px).
+  std::vector<std::vector<ImagePixel>> tie_points;
+};
+
+/// The inter-epoch matches of one image pair: the shape of PrecisePairReport (master, secondary,
+/// matches), so `{pair.master, pair.secondary, pair.matches}` carries precise matching over.
+struct EpochPairMatches {
+  std::size_t master = 0;     ///< image index in epoch 1
+  std::size_t secondary = 0;  ///< image index in epoch 2
+  PointMatches matches;       ///< a: master pixel, b: secondary pixel, px
+};
+
+/// The inter-epoch matches of any list of pair reports with members `master`, `secondary` and
+/// `matches` (PointMatches), such as PreciseMatchingReport::pairs; pairs without matches are
+/// skipped. Generic, so this header needs nothing of the matching stages.
+template <class PairReports>
+std::vector<EpochPairMatches> epoch_pair_matches(const PairReports& pairs) {
+  std::vector<EpochPairMatches> out;
+  for (const auto& pair : pairs)
+    if (!pair.matches.empty()) out.push_back({pair.master, pair.secondary, pair.matches});
+  return out;
+}
+
+/// Options of combined_adjustment.
+struct CombinedAdjustmentOptions {
+  /// The bundle adjustment. When `bundle.epochs` is empty the stage fills it: epoch 1 all free,
+  /// epoch 2 fixed when `fix_reference_epoch` (else free too, and the gauge is fixed internally).
+  BundleOptions bundle;
+  /// Hold epoch 2's poses, camera and affine parts fixed (its orientation is the reference, as
+  /// MicMac's FrozenPoses).
+  bool fix_reference_epoch = true;
+  /// Merging of tie points and matches into tracks.
+  TrackOptions tracks;
+};
+
+/// Outcome of combined_adjustment. Default: failure.
+struct CombinedAdjustmentResult {
+  /// The adjustment's report (success, message, RMS per epoch and kind, intrinsics, ...).
+  BundleReport report;
+  /// What the track building merged and dropped.
+  TrackReport tracks;
+  /// Adjusted frames of epoch 1 and epoch 2 in the epoch-2 frame. When !report.success: epoch 1
+  /// moved by the rough Helmert and epoch 2 as given.
+  std::vector<Frame<FraserAffine>> epoch1;
+  std::vector<Frame<FraserAffine>> epoch2;
+};
+
+/// Runs the combined adjustment.
+/// @param epoch1, epoch2 the epochs in their own frames.
+/// @param matches inter-epoch matches per image pair (epoch-1 master, epoch-2 secondary).
+/// @param epoch2_from_epoch1 the rough co-registration.
+/// Data failures (e.g. no inter-epoch match: "too few inter-epoch tracks") give
+/// report.success == false; malformed input (an image index out of range, non-finite pixels,
+/// bad options) throws diachron::Error.
+inline CombinedAdjustmentResult combined_adjustment(const CombinedEpoch& epoch1, const CombinedEpoch& epoch2,
+                                                    const std::vector<EpochPairMatches>& matches,
+                                                    const Helmert3& epoch2_from_epoch1,
+                                                    const CombinedAdjustmentOptions& options = {}) {
+  const int n1 = static_cast<int>(epoch1.frames.size());
+  const int n2 = static_cast<int>(epoch2.frames.size());
+  CombinedAdjustmentResult result;
+
+  // One image list: epoch 1 (moved into the epoch-2 frame) first, then epoch 2.
+  BundleInput input;
+  for (const auto& f : epoch1.frames) input.frames.push_back(f.transformed(epoch2_from_epoch1));
+  for (const auto& f : epoch2.frames) input.frames.push_back(f);
+  input.image_epoch.assign(static_cast<std::size_t>(n1), 0);
+  input.image_epoch.resize(static_cast<std::size_t>(n1 + n2), 1);
+  result.epoch1.assign(input.frames.begin(), input.frames.begin() + n1);
+  result.epoch2 = epoch2.frames;
+
+  std::vector<std::vector<ImagePixel>> ties;
+  const auto add_ties = [&](const CombinedEpoch& epoch, int offset, int count) {
+    for (const auto& tie : epoch.tie_points) {
+      ties.emplace_back();
+      for (const ImagePixel& o : tie) {
+        DIACHRON_CHECK(o.image >= 0 && o.image < count,
+                       "combined_adjustment: tie-point image " << o.image << " outside [0, " << count << ")");
+        ties.back().push_back({o.image + offset, o.pixel});
+      }
+    }
+  };
+  add_ties(epoch1, 0, n1);
+  add_ties(epoch2, n1, n2);
+  std::vector<ImageMatch> links;
+  for (const EpochPairMatches& pair : matches) {
+    DIACHRON_CHECK(pair.master < epoch1.frames.size() && pair.secondary < epoch2.frames.size(),
+                   "combined_adjustment: pair (" << pair.master << ", " << pair.secondary << ") outside "
+                                                 << n1 << " x " << n2 << " images");
+    for (const PointMatch& m : pair.matches)
+      links.push_back({{static_cast<int>(pair.master), m.a}, {n1 + static_cast<int>(pair.secondary), m.b}});
+  }
+  TrackSet tracks = build_tracks(ties, links, n1 + n2, options.tracks);
+  result.tracks = tracks.report;
+  input.tracks = std::move(tracks.tracks);
+
+  BundleOptions bundle = options.bundle;
+  if (bundle.epochs.empty())
+    bundle.epochs = {EpochFreedom::all_free(),
+                     options.fix_reference_epoch ? EpochFreedom::all_fixed() : EpochFreedom::all_free()};
+  BundleResult adjusted = bundle_adjust(input, bundle);
+  result.report = std::move(adjusted.report);
+  if (!result.report.success) return result;
+  result.epoch1.assign(adjusted.frames.begin(), adjusted.frames.begin() + n1);
+  result.epoch2.assign(adjusted.frames.begin() + n1, adjusted.frames.end());
+  return result;
+}
+
+}  // namespace diachron

@@ -1,0 +1,174 @@
+// combined_adjustment on a small generated scene, judged with the truth: inter-epoch matches
+// from the true geometry (0.3 px noise), a rough Helmert a few metres and half a degree off; the
+// check points triangulated in epoch 1 after the adjustment, and the recovered distortion.
+// Also the intra-epoch-only control and malformed input.
+
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include <diachron/adjustment/triangulation.hpp>
+#include <diachron/core/error.hpp>
+#include <diachron/geometry/rotation.hpp>
+#include <diachron/pipeline/combined_adjustment.hpp>
+#include <diachron/synth/scene.hpp>
+
+#include "support/scenes.hpp"
+
+#include "adjustment/catch_ceres.hpp"  // last: gives CHECK back to Catch after glog
+
+using namespace diachron;
+
+namespace {
+
+// The small scene's options with the generator's default 2 x 3 block per epoch: two images per
+// epoch leave the eight intrinsics undetermined (sigma f ~ 8 px, the distortion ~ 2 px off), six
+// determine them.
+const Scene& scene() {
+  static const Scene s = [] {
+    SceneOptions o = test::small_scene_options(/*seed=*/3, /*tie_points=*/800, /*check_points=*/60);
+    for (EpochOptions& e : o.epochs) {
+      e.rows = 2;
+      e.columns = 3;
+    }
+    return generate_scene(o);
+  }();
+  return s;
+}
+
+CombinedEpoch combined_epoch(const SyntheticEpoch& e) {
+  CombinedEpoch out;
+  out.frames = e.estimated_frames();
+  for (const TiePoint& t : e.tie_points) {
+    out.tie_points.emplace_back();
+    for (const ImageObservation& o : t.observations) out.tie_points.back().push_back({o.image, o.pixel});
+  }
+  return out;
+}
+
+// Inter-epoch matches from the truth: each epoch-1 tie observation paired with the true pixel
+// (plus 0.3 px noise) of its point in every epoch-2 image that sees it.
+std::vector<EpochPairMatches> true_matches(const Scene& s, std::uint64_t seed) {
+  std::mt19937_64 random(seed);
+  std::normal_distribution<double> noise(0.0, 0.3);
+  const SyntheticEpoch& e1 = s.epochs[0];
+  const SyntheticEpoch& e2 = s.epochs[1];
+  std::vector<EpochPairMatches> out;
+  for (std::size_t m = 0; m < e1.images.size(); ++m)
+    for (std::size_t q = 0; q < e2.images.size(); ++q) out.push_back({m, q, {}});
+  for (const TiePoint& t : e1.tie_points)
+    for (std::size_t q = 0; q < e2.images.size(); ++q) {
+      const auto px = e2.world_frame(q).project(t.world);
+      if (!px || !e2.world_frame(q).in_image(*px)) continue;
+      // One noisy pixel per epoch-2 image: two different ones would make the track conflict.
+      const Vec2 secondary = *px + Vec2(noise(random), noise(random));
+      for (const ImageObservation& o : t.observations)
+        out[static_cast<std::size_t>(o.image) * e2.images.size() + q].matches.push_back({o.pixel, secondary, 1.0});
+    }
+  return out;
+}
+
+// The true Helmert spoiled: turned by 0.5 degree about a tilted axis through the block and
+// shifted by about 4 m (epoch-2 units follow the epoch-2 frame's scale).
+Helmert3 rough_helmert(const Scene& s) {
+  const Helmert3 truth = s.epoch2_from_epoch1();
+  const Helmert3 world_to_e2 = s.epochs[1].epoch_from_world();
+  Vec3 centre = Vec3::Zero();
+  for (const auto& image : s.epochs[1].images) centre += image.pose_epoch.centre();
+  centre /= static_cast<double>(s.epochs[1].images.size());
+  const Mat3 turn = rotation_from_axis_angle<double>(Vec3(0.3, -0.5, 0.8).normalized() * (0.5 * kPi / 180.0));
+  const Vec3 shift = world_to_e2.scale * Vec3(3.0, -2.0, 2.0);
+  const Helmert3 spoil{1.0, turn, Vec3(centre - turn * centre + shift)};
+  return spoil * truth;
+}
+
+// RMS distance (epoch-2 units) between the check points triangulated from their true epoch-1
+// pixels with `frames` (epoch-2 frame) and their true epoch-2 positions.
+double check_point_rms(const Scene& s, const std::vector<Frame<FraserAffine>>& frames, int* used = nullptr) {
+  const Helmert3 e2_from_world = s.epochs[1].epoch_from_world();
+  double sum = 0.0;
+  int n = 0;
+  for (const CheckPoint& cp : s.check_points) {
+    Track t;
+    for (const auto& o : cp.observations)
+      if (o.epoch == 0) t.observations.push_back({o.image, o.pixel, ObservationKind::intra_epoch});
+    if (t.observations.size() < 2) continue;
+    const TriangulationResult r = triangulate_track(frames, t);
+    if (!r.success) continue;
+    sum += (r.point - e2_from_world(cp.world)).squaredNorm();
+    ++n;
+  }
+  if (used) *used = n;
+  return n > 0 ? std::sqrt(sum / n) : std::numeric_limits<double>::infinity();
+}
+
+double distortion_difference_px(const Camera<FraserAffine>& a, const Camera<FraserAffine>& b) {
+  double worst = 0.0;
+  for (double u = 0.0; u <= a.width() - 1; u += a.width() / 16.0)
+    for (double v = 0.0; v <= a.height() - 1; v += a.height() / 12.0) {
+      const Vec2 pixel(u, v);
+      const Vec2 xa = *a.normalized_from_pixel(pixel), xb = *b.normalized_from_pixel(pixel);
+      worst = std::max(worst, ((pixel - a.principal_point() - a.focal() * xa) - (pixel - b.principal_point() - b.focal() * xb)).norm());
+    }
+  return worst;
+}
+
+}  // namespace
+
+TEST_CASE("combined_adjustment: Nominal, check points 3x closer than the rough Helmert, distortion within 0.5 px",
+          "[adjustment][pipeline]") {
+  const Scene& s = scene();
+  const CombinedEpoch e1 = combined_epoch(s.epochs[0]), e2 = combined_epoch(s.epochs[1]);
+  const Helmert3 rough = rough_helmert(s);
+  const CombinedAdjustmentResult r = combined_adjustment(e1, e2, true_matches(s, 1), rough);
+  INFO(r.report.message);
+  REQUIRE(r.report.success);
+  CHECK(r.report.inter_epoch_tracks >= 10);
+  CHECK(r.tracks.dropped_conflicting == 0);
+  REQUIRE(r.epoch1.size() == e1.frames.size());
+  REQUIRE(r.epoch2.size() == e2.frames.size());
+
+  std::vector<Frame<FraserAffine>> moved;
+  for (const auto& f : e1.frames) moved.push_back(f.transformed(rough));
+  int used = 0;
+  const double before = check_point_rms(s, moved), after = check_point_rms(s, r.epoch1, &used);
+  const double gsd_e2 = s.epochs[0].gsd_m * s.epochs[1].epoch_from_world().scale;  // epoch-1 GSD in epoch-2 units
+  INFO("check points (" << used << "): " << before << " -> " << after << " epoch-2 units; epoch-1 GSD " << gsd_e2);
+  CHECK(used >= 10);
+  CHECK(after * 3.0 < before);
+  CHECK(after < 1.5 * gsd_e2);
+
+  const double distortion_before = distortion_difference_px(e1.frames[0].camera(), s.epochs[0].camera);
+  const double distortion_after = distortion_difference_px(r.epoch1[0].camera(), s.epochs[0].camera);
+  INFO("distortion " << distortion_before << " -> " << distortion_after << " px");
+  CHECK(distortion_after < 0.5);
+  // Epoch 2 is the fixed reference.
+  for (std::size_t i = 0; i < e2.frames.size(); ++i)
+    CHECK((r.epoch2[i].pose().centre() - e2.frames[i].pose().centre()).norm() == 0.0);
+}
+
+TEST_CASE("combined_adjustment: the intra-epoch-only control reports too few inter-epoch tracks", "[adjustment][pipeline]") {
+  const Scene& s = scene();
+  const CombinedEpoch e1 = combined_epoch(s.epochs[0]), e2 = combined_epoch(s.epochs[1]);
+  const Helmert3 rough = rough_helmert(s);
+  const CombinedAdjustmentResult r = combined_adjustment(e1, e2, {}, rough);
+  CHECK_FALSE(r.report.success);
+  CHECK(r.report.message.find("too few inter-epoch tracks") != std::string::npos);
+  // The answer is the rough co-registration, untouched.
+  REQUIRE(r.epoch1.size() == e1.frames.size());
+  CHECK((r.epoch1[0].pose().centre() - e1.frames[0].transformed(rough).pose().centre()).norm() < 1e-9);
+  CHECK_THROWS_AS(combined_adjustment(e1, e2, {EpochPairMatches{7, 0, {}}}, rough), Error);
+}
+
+TEST_CASE("epoch_pair_matches: carries pair reports over, skipping empty pairs", "[adjustment][pipeline]") {
+  struct PairReport {  // the shape of PrecisePairReport
+    std::size_t master = 0, secondary = 0;
+    PointMatches matches;
+  };
+  const std::vector<PairReport> pairs = {{0, 1, {{Vec2(1, 2), Vec2(3, 4), 0.9}}}, {1, 0, {}}, {2, 3, {{Vec2(5, 6), Vec2(7, 8), 0.8}}}};
+  const std::vector<EpochPairMatches> m = epoch_pair_matches(pairs);
+  REQUIRE(m.size() == 2);
+  CHECK(m[1].master == 2);
+  CHECK(m[1].secondary == 3);
+  CHECK(m[1].matches[0].b == Vec2(7, 8));
+}
