@@ -6,7 +6,9 @@
 /// only (target diachron::core). The OpenCV adapters (diachron/vision/...) and the I/O
 /// (diachron/io/..., diachron/synth/scene_io.hpp; GDAL for GeoTIFFs and images, while
 /// io/colmap_text.hpp, io/homol.hpp and io/helmert_json.hpp need only the standard library and Eigen)
-/// are included separately, so that this header never pulls them.
+/// and the Ceres bundle adjustment (diachron/adjustment/... but its track builder, and
+/// diachron/pipeline/combined_adjustment.hpp; target diachron::adjustment) are included separately,
+/// so that this header never pulls them.
 
 #include <diachron/core/error.hpp>
 #include <diachron/core/geo_transform.hpp>
@@ -71,6 +73,7 @@
 #include <diachron/matching/point_match.hpp>
 #include <diachron/matching/rotation_hypotheses.hpp>
 #include <diachron/matching/scale_hypotheses.hpp>
+#include <diachron/adjustment/tracks.hpp>
 #include <diachron/eval/check_points.hpp>
 #include <diachron/eval/coregistration_case.hpp>
 #include <diachron/eval/dod.hpp>
