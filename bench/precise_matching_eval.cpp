@@ -3,13 +3,18 @@
 //
 //   precise_matching_eval [--seeds N] [--first-seed S] [--methods LIST] [--max-pairs N] [--threads N]
 //                         [--models DIR] [--warp corners|grid|piecewise] [--ncc-threshold T]
-//                         [--min-overlap F] [--radius PX]
+//                         [--min-overlap F] [--radius PX] [--measure intensity|gradient|orientation]
+//                         [--corr-radius PX] [--corr-window PX] [--min-score S] [--min-margin M]
+//                         [--second-pass PX] [--cell PX] [--ground-gsd G] [--no-ncc] [--no-refine]
+//                         [--ncc-correlation]
 //
 // Methods (comma-separated; default all but xfeat when the model is absent):
 //   baseline        whole-image SIFT (8000 strongest keypoints), ratio 0.8 + mutual, F-RANSAC 3 px
 //   guided-rootsift guided matching of RootSIFT keypoints, then the ground filter and NCC
 //   guided-sift     the same with plain SIFT descriptors
 //   patch-sift, patch-akaze, patch-xfeat   one-to-one transfer-guided tiles, then the filters
+//   correlation     grid interest points correlated around their prediction (docs/correlation-matching.md);
+//                   correlation-intensity|gradient|orientation: the same with that measure
 // For every seed of SceneOptions::decades_apart(): the rough co-registration of the two epoch DSMs
 // (today's defaults) gives the Helmert; overlapping_pairs() gives the pairs (estimated frames and
 // the epoch DSMs, as a user has them); every method runs on the same pairs. Stages: tentative,
@@ -64,6 +69,11 @@ struct Arguments {
   double ncc_threshold = std::nan("");  // unset: the default
   double min_overlap = 0.1;
   double radius = std::nan("");  // unset: the default
+  std::string measure;            // correlation: unset = the default
+  int corr_radius = -1, corr_window = -1, second_pass = -1, cell = -1;
+  double min_score = std::nan(""), min_margin = std::nan("");
+  double ground_gsd = std::nan("");
+  bool no_ncc = false, no_refine = false, ncc_correlation = false;
 };
 
 Arguments parse(int argc, char** argv) {
@@ -87,13 +97,24 @@ Arguments parse(int argc, char** argv) {
     else if (s == "--ncc-threshold") a.ncc_threshold = std::stod(value());
     else if (s == "--min-overlap") a.min_overlap = std::stod(value());
     else if (s == "--radius") a.radius = std::stod(value());
+    else if (s == "--measure") a.measure = value();
+    else if (s == "--corr-radius") a.corr_radius = std::stoi(value());
+    else if (s == "--corr-window") a.corr_window = std::stoi(value());
+    else if (s == "--second-pass") a.second_pass = std::stoi(value());
+    else if (s == "--cell") a.cell = std::stoi(value());
+    else if (s == "--min-score") a.min_score = std::stod(value());
+    else if (s == "--min-margin") a.min_margin = std::stod(value());
+    else if (s == "--ground-gsd") a.ground_gsd = std::stod(value());
+    else if (s == "--no-ncc") a.no_ncc = true;
+    else if (s == "--ncc-correlation") a.ncc_correlation = true;
+    else if (s == "--no-refine") a.no_refine = true;
     else {
       std::fprintf(stderr, "unknown argument %s\n", s.c_str());
       std::exit(1);
     }
   }
   if (a.methods.empty()) {
-    a.methods = {"baseline", "guided-rootsift", "guided-sift", "patch-sift", "patch-akaze"};
+    a.methods = {"baseline", "guided-rootsift", "guided-sift", "patch-sift", "patch-akaze", "correlation"};
     if (!a.models.empty()) a.methods.push_back("patch-xfeat");
   }
   return a;
@@ -195,6 +216,21 @@ int main(int argc, char** argv) {
     else if (args.warp == "grid") options.patch.warp.kind = PatchWarpKind::homography_grid;
     else if (args.warp == "piecewise") options.patch.warp.kind = PatchWarpKind::piecewise_affine;
     else if (!args.warp.empty()) throw Error("unknown --warp " + args.warp);
+    if (args.measure == "intensity") options.correlation.match.measure = CorrelationMeasure::intensity;
+    else if (args.measure == "gradient") options.correlation.match.measure = CorrelationMeasure::gradient;
+    else if (args.measure == "orientation") options.correlation.match.measure = CorrelationMeasure::orientation;
+    else if (!args.measure.empty()) throw Error("unknown --measure " + args.measure);
+    if (args.corr_radius > 0) options.correlation.match.search_radius_px = args.corr_radius;
+    if (args.corr_window > 0) options.correlation.match.window_px = args.corr_window;
+    if (args.second_pass >= 0) options.correlation.second_pass_radius_px = args.second_pass;
+    if (args.cell > 0) options.correlation.interest.cell_px = args.cell;
+    if (std::isfinite(args.min_score)) options.correlation.match.min_score = args.min_score;
+    if (std::isfinite(args.min_margin)) options.correlation.match.min_margin = args.min_margin;
+    // --ground-gsd sets the correlation method's threshold (the descriptor methods keep the paper's).
+    if (std::isfinite(args.ground_gsd)) options.correlation.ground_threshold_gsd = args.ground_gsd;
+    if (args.no_ncc) options.use_ncc = false;
+    if (args.ncc_correlation) options.correlation.use_ncc = true;
+    if (args.no_refine) options.ncc.refine = false;
 
     std::printf("precise_matching_eval: %d decades seeds from %llu, methods", args.seeds,
                 static_cast<unsigned long long>(args.first_seed));
@@ -276,6 +312,14 @@ int main(int argc, char** argv) {
           SiftOptions so;
           so.root_sift = m == "guided-rootsift";
           report = precise_matching_guided(p1, p2, rough.epoch2_from_epoch1, pairs, SiftExtractor(so), options);
+        } else if (m.rfind("correlation", 0) == 0) {
+          // "correlation" with the options given; "correlation-<measure>" overrides the measure.
+          PreciseMatchingOptions o = options;
+          if (m == "correlation-intensity") o.correlation.match.measure = CorrelationMeasure::intensity;
+          else if (m == "correlation-gradient") o.correlation.match.measure = CorrelationMeasure::gradient;
+          else if (m == "correlation-orientation") o.correlation.match.measure = CorrelationMeasure::orientation;
+          else if (m != "correlation") throw Error("unknown method " + m);
+          report = precise_matching_correlation(p1, p2, rough.epoch2_from_epoch1, pairs, o);
         } else if (m == "patch-sift") {
           report = precise_matching_patch(p1, p2, rough.epoch2_from_epoch1, pairs,
                                           ExtractorPairMatcher<SiftExtractor>(SiftExtractor{}), options);
@@ -288,6 +332,9 @@ int main(int argc, char** argv) {
           throw Error("unknown method " + m);
         }
         MethodResult& result = results[m];
+        if (std::getenv("DIACHRON_EVAL_VERBOSE"))
+          for (const PrecisePairReport& r : report.pairs)
+            std::fprintf(stderr, "    %zu-%zu: %s\n", r.master, r.secondary, r.message.c_str());
         for (const PrecisePairReport& r : report.pairs) score_pair(result, truth, r);
         std::fprintf(stderr, "  %s: %.1f s, median %.0f final correct (< 3 px) per pair so far\n", m.c_str(),
                      seconds_since(t0), median(result.stages[3].correct3_per_pair));

@@ -42,13 +42,17 @@ using namespace diachron;
 
 const char* kUsage =
     "usage: match_epochs EPOCH1_DIR EPOCH2_DIR --out DIR [options]\n"
-    "  --method patch|guided                  tentative matches: one-to-one transfer-guided tiles, or\n"
-    "                                         keypoints guided by DSM + Helmert (default guided)\n"
-    "  --matcher sift|rootsift|akaze|xfeat    features (default rootsift; guided: sift|rootsift|xfeat)\n"
+    "  --method correlation|patch|guided      tentative matches: interest points correlated around their\n"
+    "                                         DSM + Helmert prediction (default), one-to-one transfer-\n"
+    "                                         guided tiles, or keypoints guided by DSM + Helmert\n"
+    "  --measure orientation|gradient|intensity  correlation's similarity (default orientation)\n"
+    "  --matcher sift|rootsift|akaze|xfeat    patch/guided features (default rootsift; guided:\n"
+    "                                         sift|rootsift|xfeat)\n"
     "  --model PATH                           XFeat ONNX file (with --matcher xfeat)\n"
     "  --min-overlap F                        least overlap of a pair, share of the smaller footprint\n"
     "                                         (default 0.1)\n"
-    "  --ncc-threshold T                      least NCC of a kept match (default 0.6, MicMac's)\n"
+    "  --ncc-threshold T                      least NCC of a kept match (default 0.6, MicMac's; the\n"
+    "                                         correlation method runs no intensity NCC)\n"
     "  --no-refine                            keep the matcher's positions (no least-squares refinement)\n"
     "  --no-ground-filter                     skip the 3D Helmert RANSAC\n"
     "  --no-ncc                               skip the NCC validator\n"
@@ -118,7 +122,7 @@ void write_report(const std::string& path, const EpochFolder& e1, const EpochFol
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string dir1, dir2, out_dir, method = "guided", matcher_name = "rootsift", model_path;
+  std::string dir1, dir2, out_dir, method = "correlation", matcher_name = "rootsift", model_path, measure;
   PreciseMatchingOptions options;
   OverlappingPairsOptions overlap_options;
   bool quiet = false, pictures = true;
@@ -134,6 +138,7 @@ int main(int argc, char** argv) {
       if (a == "--out") out_dir = value();
       else if (a == "--method") method = value();
       else if (a == "--matcher") matcher_name = value();
+      else if (a == "--measure") measure = value();
       else if (a == "--model") model_path = value();
       else if (a == "--min-overlap") min_overlap = std::stod(value());
       else if (a == "--ncc-threshold") options.ncc.min_ncc = std::stod(value());
@@ -152,13 +157,21 @@ int main(int argc, char** argv) {
       else DIACHRON_CHECK(false, "unexpected argument " << a);
     }
     DIACHRON_CHECK(!dir1.empty() && !dir2.empty() && !out_dir.empty(), "two epoch folders and --out DIR are required");
-    DIACHRON_CHECK(method == "patch" || method == "guided", "unknown --method '" << method << "' (patch or guided)");
+    DIACHRON_CHECK(method == "patch" || method == "guided" || method == "correlation",
+                   "unknown --method '" << method << "' (correlation, patch or guided)");
+    if (measure == "intensity") options.correlation.match.measure = CorrelationMeasure::intensity;
+    else if (measure == "gradient") options.correlation.match.measure = CorrelationMeasure::gradient;
+    else if (measure == "orientation" || measure.empty()) options.correlation.match.measure = CorrelationMeasure::orientation;
+    else DIACHRON_CHECK(false, "unknown --measure '" << measure << "' (orientation, gradient or intensity)");
+    DIACHRON_CHECK(measure.empty() || method == "correlation", "--measure goes with --method correlation");
     DIACHRON_CHECK(matcher_name == "sift" || matcher_name == "rootsift" || matcher_name == "akaze" ||
                        matcher_name == "xfeat",
                    "unknown --matcher '" << matcher_name << "'");
-    DIACHRON_CHECK(method == "patch" || matcher_name != "akaze",
+    DIACHRON_CHECK(method != "guided" || matcher_name != "akaze",
                    "--method guided takes sift, rootsift or xfeat features (AKAZE's are binary)");
     DIACHRON_CHECK(matcher_name != "xfeat" || !model_path.empty(), "--matcher xfeat needs --model PATH");
+    // The report names what made the matches: the measure for correlation, the features otherwise.
+    if (method == "correlation") matcher_name = to_string(options.correlation.match.measure);
     options.threads = threads;
     options.check();
     overlap_options.check();
@@ -214,7 +227,9 @@ int main(int argc, char** argv) {
     PreciseEpoch<Frame<FraserAffine>> p2{frames2, [&e2](std::size_t i) { return e2.load_image(i); }, &e2.dsm};
     SiftOptions sift_options;
     sift_options.root_sift = matcher_name == "rootsift";
-    if (method == "patch") {
+    if (method == "correlation") {
+      precise = precise_matching_correlation(p1, p2, rough.epoch2_from_epoch1, overlap.pairs, options);
+    } else if (method == "patch") {
       if (matcher_name == "akaze")
         precise = precise_matching_patch(p1, p2, rough.epoch2_from_epoch1, overlap.pairs,
                                          ExtractorPairMatcher<AkazeExtractor>(AkazeExtractor{}), options);

@@ -140,6 +140,41 @@ TEST_CASE("patch precise matching: transfer-guided tiles with SIFT, then the fil
   CHECK(j.within3 >= 0.95 * static_cast<double>(j.decidable));
 }
 
+TEST_CASE("correlation precise matching: correct matches on every pair, whatever the threads",
+          "[pipeline][precise]") {
+  const Fixture& f = fixture();
+  REQUIRE(f.pairs.size() >= 2);
+  PreciseMatchingOptions options;
+  options.threads = 2;
+  const PreciseMatchingReport report = precise_matching_correlation(epoch_view(f, 0), epoch_view(f, 1),
+                                                                    f.scene.epoch2_from_epoch1(), f.pairs, options);
+  INFO(report.message);
+  REQUIRE(report.success);
+  REQUIRE(report.pairs.size() == f.pairs.size());
+  for (const PrecisePairReport& p : report.pairs) {
+    INFO(p.message);
+    CHECK(p.ground.size() == p.tentative.size());
+    CHECK(p.grounded.size() == p.ground.kept());
+    // The correlation score is the validation: no intensity NCC by default.
+    CHECK(p.ncc.size() == 0);
+    CHECK(p.matches.size() == p.grounded.size());
+  }
+  const Judged j = judge(f, report);
+  INFO(j.within3 << " of " << j.decidable << " decidable final matches within 3 px");
+  CHECK(j.matches >= 40);
+  CHECK(j.within3 >= 0.95 * static_cast<double>(j.decidable));
+
+  options.threads = 1;
+  const PreciseMatchingReport serial = precise_matching_correlation(epoch_view(f, 0), epoch_view(f, 1),
+                                                                    f.scene.epoch2_from_epoch1(), f.pairs, options);
+  CHECK(same_matches(report, serial));
+  PreciseMatchingOptions bad;
+  bad.correlation.ground_threshold_gsd = 0.0;
+  CHECK_THROWS_AS(precise_matching_correlation(epoch_view(f, 0), epoch_view(f, 1), f.scene.epoch2_from_epoch1(),
+                                               f.pairs, bad),
+                  Error);
+}
+
 TEST_CASE("precise matching: no pair is an answer, bad input an error", "[pipeline][precise]") {
   const Fixture& f = fixture();
   const PreciseMatchingReport none = precise_matching_guided(epoch_view(f, 0), epoch_view(f, 1),

@@ -1,0 +1,572 @@
+#pragma once
+/// @file
+/// Correlation-guided matching: each master point is predicted into the secondary image through a
+/// Transfer, the secondary neighbourhood is resampled into the master geometry through the
+/// transfer's local affine, and a correlation surface over integer shifts of +-R master pixels
+/// around the prediction gives the match: its peak, when high and distinct, refined to sub-pixel.
+/// No descriptor is involved, so it survives the radiometric changes of decades (inverted land
+/// cover, film tone curves) as far as the similarity measure does. docs/correlation-matching.md.
+///
+/// Conventions: pixels as in docs/conventions.md; shifts and windows are in MASTER pixels; the
+/// secondary sample of master offset o around a prediction b0 lies at b0 + A o (A = local affine).
+
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <limits>
+#include <optional>
+#include <string>
+#include <type_traits>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include <diachron/core/error.hpp>
+#include <diachron/core/parallel.hpp>
+#include <diachron/core/raster.hpp>
+#include <diachron/matching/point_match.hpp>
+#include <diachron/terrain/local_affine.hpp>
+#include <diachron/terrain/transfer.hpp>
+#include <diachron/validation/ncc_validator.hpp>  // detail::ncc_bilinear, the shared sampler
+
+namespace diachron {
+
+/// The similarity the correlation surface measures. All are zero-mean normalised correlations in
+/// [-1, 1] over one or two channels computed on the resampled windows (master geometry).
+enum class CorrelationMeasure : std::uint8_t {
+  intensity,    ///< grey values (classic NCC): invariant to gain and offset
+  gradient,     ///< the gradient vector (gx, gy): also ignores slow illumination ramps
+  orientation,  ///< the doubled-angle gradient |g| (cos 2t, sin 2t): invariant to contrast inversion
+                ///< (g and -g give the same vector), weighted by the gradient magnitude
+};
+
+/// "intensity", "gradient" or "orientation".
+inline const char* to_string(CorrelationMeasure m) {
+  return m == CorrelationMeasure::intensity ? "intensity"
+         : m == CorrelationMeasure::gradient ? "gradient"
+                                              : "orientation";
+}
+
+/// Options of correlation matching. Defaults: docs/correlation-matching.md measures them on the
+/// decades-apart scenes.
+struct CorrelationMatchOptions {
+  /// The similarity (see CorrelationMeasure).
+  CorrelationMeasure measure = CorrelationMeasure::orientation;
+  /// Side of the square correlation window, master pixels (odd, in [5, 255]); offsets
+  /// [-w/2, w/2] around the point.
+  int window_px = 21;
+  /// Half-side of the square search, master pixels (integer, in [1, 128]): shifts in [-R, R]^2 of
+  /// the prediction. The DSM + rough-Helmert transfer lands a median 3.4 to 8.8 epoch-2 px (1.7 to
+  /// 4.4 master px at the local scale of 2) from the truth on the decades scenes, with a tail to
+  /// about twice that, hence 12.
+  int search_radius_px = 12;
+  /// A peak is kept when its score is at least this, in [-1, 1].
+  double min_score = 0.3;
+  /// ... and exceeds every other local maximum of the surface (farther than exclusion_px from it)
+  /// by at least this, in [0, 2]: repetitive or ambiguous texture has several near-equal peaks.
+  double min_margin = 0.05;
+  /// Chebyshev radius around the peak whose local maxima belong to the peak itself, master px (>= 1).
+  int exclusion_px = 3;
+  /// Average k x k bilinear samples per secondary sample when the local affine shrinks the
+  /// secondary image (k = ceil of its largest singular value, at most 4), so a 2x finer secondary
+  /// image is low-pass filtered instead of aliased.
+  bool antialias = true;
+  /// Sub-pixel refinement of a kept peak: after the parabola through the integer surface, this many
+  /// rounds of a parabola through a 3 x 3 grid of scores at 0.5, 0.25, 0.125, ... master px around
+  /// the current estimate (each score resampled afresh), in [0, 8]. The integer-grid parabola alone
+  /// is biased by up to ~0.2 master px on peaks that are not parabolic; 3 rounds bring it under 0.05
+  /// on the tests' textures.
+  int subpixel_rounds = 3;
+  /// Central-difference step of local_affine, master pixels (> 0).
+  double affine_step_px = 1.0;
+  /// Worker threads over points (0 = all cores). The result does not depend on it.
+  std::size_t threads = 0;
+
+  /// Throws diachron::Error naming the first invalid field.
+  void check() const {
+    DIACHRON_CHECK(window_px >= 5 && window_px <= 255 && window_px % 2 == 1,
+                   "CorrelationMatchOptions::window_px must be odd and in [5, 255], got " << window_px);
+    DIACHRON_CHECK(search_radius_px >= 1 && search_radius_px <= 128,
+                   "CorrelationMatchOptions::search_radius_px must be in [1, 128], got " << search_radius_px);
+    DIACHRON_CHECK(min_score >= -1.0 && min_score <= 1.0,
+                   "CorrelationMatchOptions::min_score must be in [-1, 1], got " << min_score);
+    DIACHRON_CHECK(min_margin >= 0.0 && min_margin <= 2.0,
+                   "CorrelationMatchOptions::min_margin must be in [0, 2], got " << min_margin);
+    DIACHRON_CHECK(subpixel_rounds >= 0 && subpixel_rounds <= 8,
+                   "CorrelationMatchOptions::subpixel_rounds must be in [0, 8], got " << subpixel_rounds);
+    DIACHRON_CHECK(exclusion_px >= 1, "CorrelationMatchOptions::exclusion_px must be >= 1, got " << exclusion_px);
+    DIACHRON_CHECK(std::isfinite(affine_step_px) && affine_step_px > 0.0,
+                   "CorrelationMatchOptions::affine_step_px must be finite and > 0, got " << affine_step_px);
+  }
+};
+
+/// Why a point got its verdict.
+enum class CorrelationOutcome : std::uint8_t {
+  not_run,            ///< default
+  matched,            ///< a high, distinct peak inside the search
+  no_prediction,      ///< the Transfer (or its local affine) gives nothing at the point
+  outside_master,     ///< the master window leaves the master image
+  outside_secondary,  ///< the resampled search region leaves the secondary image
+  flat,               ///< the master window has no variance in the measure's channels
+  low_score,          ///< the best score is below min_score
+  ambiguous,          ///< another peak is within min_margin of the best
+  at_border,          ///< the best shift lies on the border of the search: the true peak may be outside
+};
+
+/// The correlation peak of one point.
+struct CorrelationPeak {
+  CorrelationOutcome outcome = CorrelationOutcome::not_run;
+  /// The matched secondary position b0 + A (shift), secondary px (NaN unless matched or the peak
+  /// was computed but rejected).
+  Eigen::Vector2d b = Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
+  /// The sub-pixel shift of the peak from the prediction, master px.
+  Eigen::Vector2d shift = Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
+  double score = std::numeric_limits<double>::quiet_NaN();   ///< the peak's score
+  double second = std::numeric_limits<double>::quiet_NaN();  ///< best other local maximum (-1 if none)
+};
+
+/// What correlation_match() returns. `matches[k]` is point `point_index[k]` (score = peak score),
+/// in the order of the points; `peaks` has one entry per input point.
+struct CorrelationMatchResult {
+  bool success = false;  ///< at least one match
+  PointMatches matches;
+  std::vector<std::size_t> point_index;
+  std::vector<CorrelationPeak> peaks;
+  std::size_t no_prediction = 0, outside_master = 0, outside_secondary = 0, flat = 0, low_score = 0,
+              ambiguous = 0, at_border = 0;
+};
+
+/// The correlation surface of master point `a` against the secondary image around `b0` through the
+/// local affine `affine` (d secondary px / d master px): entry (dy + R, dx + R) is the score of the
+/// shift (dx, dy) in master px, i.e. of the secondary window centred at b0 + affine (dx, dy). NaN
+/// where a secondary window is flat. Empty (0 x 0) when a window leaves an image or the master
+/// window is flat.
+/// @throws diachron::Error for invalid options, an image smaller than 3 x 3, non-finite a, b0 or affine.
+template <class T>
+Eigen::MatrixXd correlation_surface(const Raster<T>& master, const Eigen::Vector2d& a, const Raster<T>& secondary,
+                                    const Eigen::Vector2d& b0, const Eigen::Matrix2d& affine,
+                                    const CorrelationMatchOptions& options = {});
+
+/// The peak of the correlation surface of one point (see correlation_surface), judged by the
+/// options' thresholds and refined to sub-pixel by a parabola through the peak and its neighbours
+/// on each axis.
+/// @throws diachron::Error as correlation_surface.
+template <class T>
+CorrelationPeak correlate_point(const Raster<T>& master, const Eigen::Vector2d& a, const Raster<T>& secondary,
+                                const Eigen::Vector2d& b0, const Eigen::Matrix2d& affine,
+                                const CorrelationMatchOptions& options = {});
+
+/// Correlation matching of `points` (master px, e.g. grid_interest_points) predicted through
+/// `transfer`. Deterministic, parallel over points.
+/// @throws diachron::Error for invalid options, an image smaller than 3 x 3, a non-finite point,
+///         or a transfer that returns a non-finite position.
+template <class T, class Transfer>
+CorrelationMatchResult correlation_match(const Raster<T>& master, const Raster<T>& secondary,
+                                         const std::vector<Eigen::Vector2d>& points, const Transfer& transfer,
+                                         const CorrelationMatchOptions& options = {});
+
+// Implementation ---------------------------------------------------------------------------------
+
+namespace detail {
+
+template <class T>
+void check_correlation_image(const Raster<T>& img, const char* which) {
+  DIACHRON_CHECK(img.width() >= 3 && img.height() >= 3,
+                 "correlation matching: the " << which << " image must be at least 3 x 3, got " << img.width()
+                                              << " x " << img.height());
+}
+
+// True when c + m * o stays on or between the outer pixel centres for |o|_inf <= extent.
+inline bool correlation_inside(int width, int height, const Eigen::Vector2d& c, const Eigen::Matrix2d& m,
+                               double extent) {
+  for (int k = 0; k < 4; ++k) {
+    const Eigen::Vector2d p = c + m * Eigen::Vector2d((k & 1) ? extent : -extent, (k & 2) ? extent : -extent);
+    if (!(p.x() >= 0.0 && p.y() >= 0.0 && p.x() <= width - 1 && p.y() <= height - 1)) return false;
+  }
+  return true;
+}
+
+// Samples a side x side patch at c + m * o, o in [-(side/2), side/2]^2 (side odd), averaging
+// k x k sub-samples spread over each master pixel when k > 1.
+template <class T>
+void correlation_sample(const Raster<T>& img, const Eigen::Vector2d& c, const Eigen::Matrix2d& m, int side, int k,
+                        std::vector<double>& out) {
+  out.resize(static_cast<std::size_t>(side) * static_cast<std::size_t>(side));
+  const int first = -(side / 2);
+  std::size_t idx = 0;
+  for (int j = 0; j < side; ++j)
+    for (int i = 0; i < side; ++i) {
+      double sum = 0.0;
+      for (int sy = 0; sy < k; ++sy)
+        for (int sx = 0; sx < k; ++sx) {
+          const Eigen::Vector2d o(first + i + (sx + 0.5) / k - 0.5, first + j + (sy + 0.5) / k - 0.5);
+          const Eigen::Vector2d p = c + m * o;
+          sum += ncc_bilinear(img, p.x(), p.y());
+        }
+      out[idx++] = sum / (k * k);
+    }
+}
+
+// The measure's channels of a patch of side `side` (1 px margin used by the gradients), on the
+// inner (side - 2)^2 pixels, row-major; one or two channels.
+inline int correlation_channels(CorrelationMeasure measure, const std::vector<double>& patch, int side,
+                                std::vector<double>& c0, std::vector<double>& c1) {
+  const int inner = side - 2;
+  const std::size_t n = static_cast<std::size_t>(inner) * static_cast<std::size_t>(inner);
+  c0.resize(n);
+  c1.resize(n);
+  auto v = [&](int x, int y) {
+    return patch[static_cast<std::size_t>(y) * static_cast<std::size_t>(side) + static_cast<std::size_t>(x)];
+  };
+  std::size_t idx = 0;
+  for (int y = 1; y <= inner; ++y)
+    for (int x = 1; x <= inner; ++x, ++idx) {
+      if (measure == CorrelationMeasure::intensity) {
+        c0[idx] = v(x, y);
+        continue;
+      }
+      const double gx = 0.5 * (v(x + 1, y) - v(x - 1, y)), gy = 0.5 * (v(x, y + 1) - v(x, y - 1));
+      if (measure == CorrelationMeasure::gradient) {
+        c0[idx] = gx;
+        c1[idx] = gy;
+        continue;
+      }
+      const double mag = std::sqrt(gx * gx + gy * gy);
+      // |g| (cos 2t, sin 2t) = ((gx^2 - gy^2), 2 gx gy) / |g|: the same for g and -g.
+      c0[idx] = mag > 0.0 ? (gx * gx - gy * gy) / mag : 0.0;
+      c1[idx] = mag > 0.0 ? 2.0 * gx * gy / mag : 0.0;
+    }
+  return measure == CorrelationMeasure::intensity ? 1 : 2;
+}
+
+// Integral image (one leading row and column of zeros) of a side x side array, and of its squares.
+inline void correlation_integrals(const std::vector<double>& c, int side, std::vector<double>& sum,
+                                  std::vector<double>& sum2) {
+  const std::size_t s1 = static_cast<std::size_t>(side) + 1;
+  sum.assign(s1 * s1, 0.0);
+  sum2.assign(s1 * s1, 0.0);
+  for (int y = 0; y < side; ++y) {
+    double r = 0.0, r2 = 0.0;
+    for (int x = 0; x < side; ++x) {
+      const double v = c[static_cast<std::size_t>(y) * static_cast<std::size_t>(side) + static_cast<std::size_t>(x)];
+      r += v;
+      r2 += v * v;
+      sum[(y + 1) * s1 + (x + 1)] = sum[y * s1 + (x + 1)] + r;
+      sum2[(y + 1) * s1 + (x + 1)] = sum2[y * s1 + (x + 1)] + r2;
+    }
+  }
+}
+
+inline double correlation_box(const std::vector<double>& integral, int side, int x, int y, int w) {
+  const std::size_t s1 = static_cast<std::size_t>(side) + 1;
+  return integral[(y + w) * s1 + (x + w)] - integral[y * s1 + (x + w)] - integral[(y + w) * s1 + x] +
+         integral[y * s1 + x];
+}
+
+struct CorrelationScratch {
+  std::vector<double> master_patch, secondary_patch, m0, m1, s0, s1, sum0, sum20, sum1, sum21, f0, f1;
+  double master_var = 0.0;  // sum of squares of the zero-mean master channels
+  int channels = 1;
+  int k = 1;  // anti-aliasing sub-samples per axis
+};
+
+template <class T>
+void check_correlation_inputs(const Raster<T>& master, const Eigen::Vector2d& a, const Raster<T>& secondary,
+                              const Eigen::Vector2d& b0, const Eigen::Matrix2d& affine) {
+  check_correlation_image(master, "master");
+  check_correlation_image(secondary, "secondary");
+  DIACHRON_CHECK(a.allFinite(), "correlation matching: non-finite master point (" << a.transpose() << ")");
+  DIACHRON_CHECK(b0.allFinite(), "correlation matching: non-finite predicted secondary point (" << b0.transpose()
+                                                                                                << ")");
+  DIACHRON_CHECK(affine.allFinite(), "correlation matching: non-finite local affine at master point ("
+                                         << a.transpose() << ")");
+}
+
+// The surface into `surface` ((2R+1)^2); returns the outcome (not_run when the surface is valid).
+template <class T>
+CorrelationOutcome correlation_surface_into(const Raster<T>& master, const Eigen::Vector2d& a,
+                                            const Raster<T>& secondary, const Eigen::Vector2d& b0,
+                                            const Eigen::Matrix2d& affine, const CorrelationMatchOptions& o,
+                                            CorrelationScratch& s, Eigen::MatrixXd& surface) {
+  const int half = o.window_px / 2, r = o.search_radius_px;
+  const int master_side = o.window_px + 2;            // +1 px margin for the gradients
+  const int secondary_side = o.window_px + 2 * r + 2;  // every shift's window, plus the margin
+  const Eigen::Matrix2d identity = Eigen::Matrix2d::Identity();
+  if (!correlation_inside(master.width(), master.height(), a, identity, half + 1))
+    return CorrelationOutcome::outside_master;
+  int k = 1;
+  if (o.antialias) k = std::clamp(static_cast<int>(std::ceil(affine_singular_values(affine).x() - 1e-6)), 1, 4);
+  // The sub-samples reach half a master pixel beyond the outer offsets.
+  if (!correlation_inside(secondary.width(), secondary.height(), b0, affine, half + r + 1 + (k > 1 ? 0.5 : 0.0)))
+    return CorrelationOutcome::outside_secondary;
+  s.k = k;
+  correlation_sample(master, a, identity, master_side, 1, s.master_patch);
+  correlation_sample(secondary, b0, affine, secondary_side, k, s.secondary_patch);
+  const int channels = correlation_channels(o.measure, s.master_patch, master_side, s.m0, s.m1);
+  correlation_channels(o.measure, s.secondary_patch, secondary_side, s.s0, s.s1);
+  const int w = o.window_px, side = secondary_side - 2;
+  const std::size_t n = static_cast<std::size_t>(w) * static_cast<std::size_t>(w);
+  if (!std::all_of(s.m0.begin(), s.m0.end(), [](double v) { return std::isfinite(v); }) ||
+      !std::all_of(s.s0.begin(), s.s0.end(), [](double v) { return std::isfinite(v); }))
+    return CorrelationOutcome::flat;
+  // Zero-mean master channels: the cross term then needs no secondary mean.
+  double master_var = 0.0, master_scale = 0.0;
+  for (int c = 0; c < channels; ++c) {
+    std::vector<double>& m = c == 0 ? s.m0 : s.m1;
+    double mean = 0.0;
+    for (double v : m) mean += v;
+    mean /= static_cast<double>(n);
+    for (double& v : m) {
+      master_scale += v * v;
+      v -= mean;
+      master_var += v * v;
+    }
+  }
+  // Rounding of a constant window leaves ~1e-20 relative variance: that is flat, not texture.
+  if (!(master_var > 1e-12 * std::max(1.0, master_scale))) return CorrelationOutcome::flat;
+  s.master_var = master_var;
+  s.channels = channels;
+  correlation_integrals(s.s0, side, s.sum0, s.sum20);
+  if (channels == 2) correlation_integrals(s.s1, side, s.sum1, s.sum21);
+  const int shifts = 2 * r + 1;
+  surface.resize(shifts, shifts);
+  for (int dy = 0; dy < shifts; ++dy)
+    for (int dx = 0; dx < shifts; ++dx) {
+      double cross = 0.0, var = 0.0, scale = 0.0;
+      for (int c = 0; c < channels; ++c) {
+        const std::vector<double>& m = c == 0 ? s.m0 : s.m1;
+        const std::vector<double>& sc = c == 0 ? s.s0 : s.s1;
+        for (int j = 0; j < w; ++j) {
+          const double* mrow = m.data() + static_cast<std::size_t>(j) * static_cast<std::size_t>(w);
+          const double* srow = sc.data() + static_cast<std::size_t>(dy + j) * static_cast<std::size_t>(side) + dx;
+          double acc = 0.0;
+          for (int i = 0; i < w; ++i) acc += mrow[i] * srow[i];
+          cross += acc;
+        }
+        const double sum = correlation_box(c == 0 ? s.sum0 : s.sum1, side, dx, dy, w);
+        const double sum2 = correlation_box(c == 0 ? s.sum20 : s.sum21, side, dx, dy, w);
+        var += sum2 - sum * sum / static_cast<double>(n);
+        scale += sum2;
+      }
+      surface(dy, dx) = var > 1e-12 * std::max(1.0, scale)
+                            ? std::clamp(cross / std::sqrt(master_var * var), -1.0, 1.0)
+                            : std::numeric_limits<double>::quiet_NaN();
+    }
+  return CorrelationOutcome::not_run;
+}
+
+// Vertex of the parabola through (-1, l), (0, c), (1, r), clamped to [-limit, limit]; 0 when the
+// three values do not bend down.
+inline double correlation_vertex(double l, double c, double r, double limit) {
+  const double d = l - 2.0 * c + r;
+  if (!std::isfinite(d) || !(d < 0.0)) return 0.0;
+  return std::clamp(0.5 * (l - r) / d, -limit, limit);
+}
+
+// Peak, second peak, sub-pixel refinement and verdict of a surface.
+inline CorrelationPeak correlation_peak(const Eigen::MatrixXd& surface, const Eigen::Vector2d& b0,
+                                        const Eigen::Matrix2d& affine, const CorrelationMatchOptions& o) {
+  CorrelationPeak p;
+  const int shifts = static_cast<int>(surface.rows()), r = o.search_radius_px;
+  int bx = -1, by = -1;
+  double best = -std::numeric_limits<double>::infinity();
+  for (int y = 0; y < shifts; ++y)
+    for (int x = 0; x < shifts; ++x)
+      if (std::isfinite(surface(y, x)) && surface(y, x) > best) {
+        best = surface(y, x);
+        bx = x;
+        by = y;
+      }
+  if (bx < 0) {
+    p.outcome = CorrelationOutcome::flat;
+    return p;
+  }
+  // The best other local maximum (>= its finite 8 neighbours, so a ridge's plateau counts) outside
+  // the peak's exclusion zone.
+  double second = -1.0;
+  for (int y = 0; y < shifts; ++y)
+    for (int x = 0; x < shifts; ++x) {
+      const double v = surface(y, x);
+      if (!std::isfinite(v) || std::max(std::abs(x - bx), std::abs(y - by)) <= o.exclusion_px || v <= second)
+        continue;
+      bool local_max = true;
+      for (int ny = std::max(0, y - 1); ny <= std::min(shifts - 1, y + 1) && local_max; ++ny)
+        for (int nx = std::max(0, x - 1); nx <= std::min(shifts - 1, x + 1); ++nx)
+          if (std::isfinite(surface(ny, nx)) && surface(ny, nx) > v) {
+            local_max = false;
+            break;
+          }
+      if (local_max) second = v;
+    }
+  // Parabola through the peak and its two neighbours on each axis; no neighbour, no refinement.
+  auto vertex = [](double l, double c, double rr) { return correlation_vertex(l, c, rr, 0.5); };
+  const double fx = bx > 0 && bx < shifts - 1 ? vertex(surface(by, bx - 1), best, surface(by, bx + 1)) : 0.0;
+  const double fy = by > 0 && by < shifts - 1 ? vertex(surface(by - 1, bx), best, surface(by + 1, bx)) : 0.0;
+  p.shift = Eigen::Vector2d(bx - r + fx, by - r + fy);
+  p.b = b0 + affine * p.shift;
+  p.score = best;
+  p.second = second;
+  if (bx == 0 || by == 0 || bx == shifts - 1 || by == shifts - 1) p.outcome = CorrelationOutcome::at_border;
+  else if (!(best >= o.min_score)) p.outcome = CorrelationOutcome::low_score;
+  else if (!(best - second >= o.min_margin)) p.outcome = CorrelationOutcome::ambiguous;
+  else p.outcome = CorrelationOutcome::matched;
+  return p;
+}
+
+// The score of the secondary window centred at `centre` (the master channels of the last
+// correlation_surface_into in `s`); NaN when it leaves the image or is flat.
+template <class T>
+double correlation_score_at(const Raster<T>& secondary, const Eigen::Vector2d& centre, const Eigen::Matrix2d& affine,
+                            const CorrelationMatchOptions& o, CorrelationScratch& s) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const int side = o.window_px + 2;
+  if (!correlation_inside(secondary.width(), secondary.height(), centre, affine,
+                          o.window_px / 2 + 1 + (s.k > 1 ? 0.5 : 0.0)))
+    return nan;
+  correlation_sample(secondary, centre, affine, side, s.k, s.secondary_patch);
+  correlation_channels(o.measure, s.secondary_patch, side, s.f0, s.f1);
+  const double n = static_cast<double>(s.f0.size());
+  double cross = 0.0, var = 0.0, scale = 0.0;
+  for (int c = 0; c < s.channels; ++c) {
+    const std::vector<double>& m = c == 0 ? s.m0 : s.m1;
+    const std::vector<double>& f = c == 0 ? s.f0 : s.f1;
+    double sum = 0.0, sum2 = 0.0;
+    for (std::size_t i = 0; i < f.size(); ++i) {
+      cross += m[i] * f[i];
+      sum += f[i];
+      sum2 += f[i] * f[i];
+    }
+    var += sum2 - sum * sum / n;
+    scale += sum2;
+  }
+  if (!std::isfinite(var) || !(var > 1e-12 * std::max(1.0, scale))) return nan;
+  return std::clamp(cross / std::sqrt(s.master_var * var), -1.0, 1.0);
+}
+
+// Rounds of 3 x 3 score grids at halving steps around the peak, each recentred on its parabola's
+// vertex. Stops (keeping the last estimate) when a score cannot be computed.
+template <class T>
+void correlation_refine(const Raster<T>& secondary, const Eigen::Vector2d& b0, const Eigen::Matrix2d& affine,
+                        const CorrelationMatchOptions& o, CorrelationScratch& s, CorrelationPeak& p) {
+  Eigen::Vector2d c = p.shift;
+  double h = 0.5;
+  for (int round = 0; round < o.subpixel_rounds; ++round, h *= 0.5) {
+    double v[3][3];
+    bool ok = true;
+    for (int j = 0; j < 3 && ok; ++j)
+      for (int i = 0; i < 3 && ok; ++i) {
+        v[j][i] = correlation_score_at(secondary, Eigen::Vector2d(b0 + affine * (c + h * Eigen::Vector2d(i - 1, j - 1))),
+                                       affine, o, s);
+        ok = std::isfinite(v[j][i]);
+      }
+    if (!ok) break;
+    c += h * Eigen::Vector2d(correlation_vertex(v[1][0], v[1][1], v[1][2], 1.0),
+                             correlation_vertex(v[0][1], v[1][1], v[2][1], 1.0));
+  }
+  const double score = correlation_score_at(secondary, Eigen::Vector2d(b0 + affine * c), affine, o, s);
+  if (!std::isfinite(score)) return;
+  p.shift = c;
+  p.b = b0 + affine * c;
+  p.score = score;
+}
+
+}  // namespace detail
+
+template <class T>
+Eigen::MatrixXd correlation_surface(const Raster<T>& master, const Eigen::Vector2d& a, const Raster<T>& secondary,
+                                    const Eigen::Vector2d& b0, const Eigen::Matrix2d& affine,
+                                    const CorrelationMatchOptions& options) {
+  static_assert(std::is_arithmetic_v<T>, "correlation_surface: the pixel type must be arithmetic");
+  options.check();
+  detail::check_correlation_inputs(master, a, secondary, b0, affine);
+  detail::CorrelationScratch s;
+  Eigen::MatrixXd surface;
+  if (detail::correlation_surface_into(master, a, secondary, b0, affine, options, s, surface) !=
+      CorrelationOutcome::not_run)
+    return Eigen::MatrixXd();
+  return surface;
+}
+
+template <class T>
+CorrelationPeak correlate_point(const Raster<T>& master, const Eigen::Vector2d& a, const Raster<T>& secondary,
+                                const Eigen::Vector2d& b0, const Eigen::Matrix2d& affine,
+                                const CorrelationMatchOptions& options) {
+  static_assert(std::is_arithmetic_v<T>, "correlate_point: the pixel type must be arithmetic");
+  options.check();
+  detail::check_correlation_inputs(master, a, secondary, b0, affine);
+  detail::CorrelationScratch s;
+  Eigen::MatrixXd surface;
+  const CorrelationOutcome o = detail::correlation_surface_into(master, a, secondary, b0, affine, options, s, surface);
+  if (o != CorrelationOutcome::not_run) {
+    CorrelationPeak p;
+    p.outcome = o;
+    return p;
+  }
+  CorrelationPeak p = detail::correlation_peak(surface, b0, affine, options);
+  if (p.outcome == CorrelationOutcome::matched) detail::correlation_refine(secondary, b0, affine, options, s, p);
+  return p;
+}
+
+template <class T, class Transfer>
+CorrelationMatchResult correlation_match(const Raster<T>& master, const Raster<T>& secondary,
+                                         const std::vector<Eigen::Vector2d>& points, const Transfer& transfer,
+                                         const CorrelationMatchOptions& options) {
+  static_assert(std::is_arithmetic_v<T>, "correlation_match: the pixel type must be arithmetic");
+  static_assert(check_transfer<Transfer>());
+  options.check();
+  detail::check_correlation_image(master, "master");
+  detail::check_correlation_image(secondary, "secondary");
+  for (std::size_t i = 0; i < points.size(); ++i)
+    DIACHRON_CHECK(points[i].allFinite(), "correlation_match: master point " << i << " is not finite");
+  CorrelationMatchResult result;
+  result.peaks.assign(points.size(), CorrelationPeak{});
+  constexpr std::size_t kChunk = 32;  // each task allocates its scratch once
+  const std::size_t chunks = (points.size() + kChunk - 1) / kChunk;
+  parallel_for(chunks, options.threads, [&](std::size_t chunk) {
+    detail::CorrelationScratch s;
+    Eigen::MatrixXd surface;
+    for (std::size_t i = chunk * kChunk; i < std::min(points.size(), (chunk + 1) * kChunk); ++i) {
+      CorrelationPeak& p = result.peaks[i];
+      const std::optional<Eigen::Vector2d> b0 = transfer(points[i]);
+      DIACHRON_CHECK(!b0 || b0->allFinite(), "correlation_match: the transfer sends master point "
+                                                 << i << " (" << points[i].transpose()
+                                                 << ") to a non-finite position");
+      const std::optional<Eigen::Matrix2d> affine =
+          b0 ? local_affine(transfer, points[i], options.affine_step_px) : std::nullopt;
+      if (!b0 || !affine) {
+        p.outcome = CorrelationOutcome::no_prediction;
+        continue;
+      }
+      const CorrelationOutcome o =
+          detail::correlation_surface_into(master, points[i], secondary, *b0, *affine, options, s, surface);
+      if (o != CorrelationOutcome::not_run) {
+        p.outcome = o;
+        continue;
+      }
+      p = detail::correlation_peak(surface, *b0, *affine, options);
+      if (p.outcome == CorrelationOutcome::matched) detail::correlation_refine(secondary, *b0, *affine, options, s, p);
+    }
+  });
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const CorrelationPeak& p = result.peaks[i];
+    switch (p.outcome) {
+      case CorrelationOutcome::matched:
+        result.matches.push_back({points[i], p.b, p.score});
+        result.point_index.push_back(i);
+        break;
+      case CorrelationOutcome::no_prediction: ++result.no_prediction; break;
+      case CorrelationOutcome::outside_master: ++result.outside_master; break;
+      case CorrelationOutcome::outside_secondary: ++result.outside_secondary; break;
+      case CorrelationOutcome::flat: ++result.flat; break;
+      case CorrelationOutcome::low_score: ++result.low_score; break;
+      case CorrelationOutcome::ambiguous: ++result.ambiguous; break;
+      case CorrelationOutcome::at_border: ++result.at_border; break;
+      case CorrelationOutcome::not_run: break;
+    }
+  }
+  result.success = !result.matches.empty();
+  return result;
+}
+
+}  // namespace diachron
