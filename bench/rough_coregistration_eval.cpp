@@ -15,7 +15,7 @@
 //
 //   rough_coregistration_eval [--data DIR] [--models DIR] [--cases N] [--overlap MIN MAX]
 //                             [--configs C1,C2,...] [--threads N] [--seed S] [--max-features N]
-//                             [--gaps F1,F2,...] [--verbose]
+//                             [--gaps F1,F2,...] [--only SOURCE] [--verbose]
 //
 // A configuration is IMAGE/MATCHER/TILING/ROTATIONS, e.g. relief/sift/tiles/rot:
 //   IMAGE     stretch2 stretch5 wallis2 wallis5 hillshade multihillshade slope relief
@@ -128,6 +128,12 @@ Config parse_config(const std::string& text) {
     o.scale_hypotheses.upsample_below_px = std::stoi(image.substr(2, end - 2));
     return c;
   }
+  // corr: the default with the dense correlation fallback on (RoughCoregistrationOptions::
+  // correlation_fallback), run when every feature hypothesis fails.
+  if (image == "corr") {
+    o.correlation_fallback = true;
+    return c;
+  }
   if (image == "noscale") {
     o.scale_hypotheses.enabled = false;
     return c;
@@ -205,6 +211,7 @@ int main(int argc, char** argv) {
   std::uint64_t seed = 1;
   bool verbose = false, synthetic = false;
   std::vector<int> gaps;  // resolution-gap factors; empty: no gap cases
+  std::string only;       // run only the cases whose source name contains this (same seeds as the full run)
   std::string configs_text = "stretch2/sift/whole/norot,relief/sift/tiles/rot";
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -224,6 +231,7 @@ int main(int argc, char** argv) {
     else if (a == "--seed") seed = std::stoull(next());
     else if (a == "--max-features") max_features = std::stoi(next());
     else if (a == "--verbose") verbose = true;
+    else if (a == "--only") only = next();
     else if (a == "--synthetic") synthetic = true;
     else if (a == "--gaps") {
       std::stringstream gs(next());
@@ -308,6 +316,7 @@ int main(int argc, char** argv) {
         c.rotation_deg = rad_to_deg(std::atan2(c.secondary_from_master.rotation(1, 0), c.secondary_from_master.rotation(0, 0)));
       } else {
         const Source& src = sources[k % sources.size()];
+        if (!only.empty() && src.name.find(only) == std::string::npos) continue;
         source_name = src.name;
         case_options.crop_windows = src.crop;
         c = make_coregistration_case(src.master, src.secondary, case_options, seed + k);
@@ -347,6 +356,11 @@ int main(int argc, char** argv) {
             hyps += " " + h.hypothesis.name() + ":" + std::to_string(h.inliers) + "/" + std::to_string(h.required_inliers) +
                     (h.success ? "+" : "") + "@" + std::to_string(h.seconds).substr(0, 4) + "s";
           std::fprintf(stderr, "  scale hypotheses (inliers/required@time):%s\n", hyps.c_str());
+          if (r.correlation_ran)
+            std::fprintf(stderr, "  correlation fallback: %s, ZNCC %.3f, runner-up %.3f, %zu hypotheses, %.2f s (coarse %.2f, refine %.2f)\n",
+                         r.correlation_used ? "used" : "not used", r.correlation.score, r.correlation.runner_up,
+                         r.correlation.hypotheses, r.seconds.correlation, r.correlation.seconds.coarse,
+                         r.correlation.seconds.refine);
           std::fprintf(stderr, "case %zu %-13s overlap %.2f rot %6.1f scale %.2f | %-32s %s err %8.2f cells, %4zu/%5zu in %.1f s | rms3d %.2f cells, 3D inliers %zu/%zu, trust %s | %s\n",
                        k, source_name.c_str(), c.overlap, c.rotation_deg, c.scale, config.name.c_str(),
                        o.success ? "OK  " : "FAIL", o.error_cells, o.inliers, o.matches, o.seconds, r.rms_3d_cells,

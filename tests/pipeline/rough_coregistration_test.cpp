@@ -473,3 +473,32 @@ TEST_CASE("scale hypotheses: small DSM images are enlarged on the same ground", 
   CHECK((gb.pixel_to_world({-0.5, -0.5}) - g.pixel_to_world({-0.5, -0.5})).norm() < 1e-9);
   CHECK((gb.pixel_to_world({23.5, 15.5}) - g.pixel_to_world({5.5, 3.5})).norm() < 1e-9);
 }
+
+namespace {
+// A matcher that never finds anything: the feature path fails on every hypothesis.
+struct BlindMatcher {
+  std::vector<diachron::PointMatch> match(const diachron::Raster<std::uint8_t>&, const diachron::Raster<std::uint8_t>&) const {
+    return {};
+  }
+};
+}  // namespace
+
+TEST_CASE("rough_coregistration: the correlation fallback answers when the features find nothing", "[pipeline]") {
+  const diachron::CoregistrationCase c = synthetic_case(7);
+  diachron::RoughCoregistrationOptions options;
+  options.scale_hypotheses.enabled = false;  // one failing feature hypothesis is enough here
+  const auto without = diachron::rough_coregistration(c.master, c.secondary, BlindMatcher{}, options);
+  CHECK_FALSE(without.success);
+  CHECK_FALSE(without.correlation_ran);
+  options.correlation_fallback = true;
+  const auto with = diachron::rough_coregistration(c.master, c.secondary, BlindMatcher{}, options);
+  INFO(with.message);
+  REQUIRE(with.success);
+  CHECK(with.correlation_ran);
+  CHECK(with.correlation_used);
+  CHECK(with.correlation.score > 0.8);
+  CHECK(with.seconds.correlation > 0.0);
+  const diachron::HelmertError e = diachron::helmert_error_on_overlap(with.epoch2_from_epoch1, c);
+  REQUIRE(e.valid);
+  CHECK(e.rms < 1.0 * c.secondary.min_cell_size());
+}

@@ -1,0 +1,144 @@
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <vector>
+
+#include <diachron/core/error.hpp>
+#include <diachron/terrain/dsm_correlation_search.hpp>
+
+namespace {
+
+// Smooth terrain: a sum of Gaussian hills and hollows drawn by a small deterministic generator.
+struct Terrain {
+  std::vector<Eigen::Vector4d> bumps;  // x, y, sigma, amplitude
+  explicit Terrain(std::uint64_t seed) {
+    std::uint64_t s = seed;
+    auto next = [&] {
+      s = s * 6364136223846793005ULL + 1442695040888963407ULL;
+      return static_cast<double>(s >> 11) / 9007199254740992.0;
+    };
+    for (int i = 0; i < 60; ++i)
+      bumps.emplace_back(-40.0 + 200.0 * next(), -40.0 + 200.0 * next(), 4.0 + 10.0 * next(), (next() - 0.5) * 80.0);
+  }
+  double operator()(double x, double y) const {
+    double z = 500.0;
+    for (const auto& b : bumps) z += b[3] * std::exp(-((x - b[0]) * (x - b[0]) + (y - b[1]) * (y - b[1])) / (2.0 * b[2] * b[2]));
+    return z;
+  }
+};
+
+// Secondary: the terrain on a size x size grid of unit cells. Master: a w x h grid whose pixel p shows
+// the terrain at truth(p) = ratio R(angle) p + t, with heights in the master frame's units.
+struct Case {
+  diachron::Dsm master, secondary;
+  double ratio, angle;
+  Eigen::Vector2d t;
+  Eigen::Vector2d truth(const Eigen::Vector2d& p) const {
+    return ratio * Eigen::Rotation2Dd(angle).toRotationMatrix() * p + t;
+  }
+};
+
+Case make_case(const Terrain& secondary_terrain, const Terrain& master_terrain, double ratio, double angle_deg,
+               const Eigen::Vector2d& master_centre_in_secondary, int w, int h, bool holes, int size = 120) {
+  Case c;
+  c.ratio = ratio;
+  c.angle = angle_deg * diachron::kPi / 180.0;
+  diachron::Raster<float> s(size, size);
+  for (int y = 0; y < size; ++y)
+    for (int x = 0; x < size; ++x) s(x, y) = static_cast<float>(secondary_terrain(x, y));
+  const Eigen::Vector2d mc(0.5 * (w - 1), 0.5 * (h - 1));
+  c.t = master_centre_in_secondary - ratio * Eigen::Rotation2Dd(c.angle).toRotationMatrix() * mc;
+  diachron::Raster<float> m(w, h);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const Eigen::Vector2d q = c.truth(Eigen::Vector2d(x, y));
+      // A master cell is `ratio` secondary cells: the master frame's unit is 1 / ratio of the
+      // secondary's, for heights too (a 3D similarity), on another datum.
+      m(x, y) = static_cast<float>((master_terrain(q.x(), q.y()) - 500.0) / ratio + 123.0);
+    }
+  if (holes) {
+    const float nan = std::numeric_limits<float>::quiet_NaN();
+    for (int y = 0; y < size; ++y)
+      for (int x = 0; x < size; ++x)
+        if (std::hypot(x - 30, y - 80) < 9 || std::hypot(x - 90, y - 20) < 6) s(x, y) = nan;
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x)
+        if (std::hypot(x - 0.3 * w, y - 0.6 * h) < 5) m(x, y) = nan;
+  }
+  // Same handedness on both sides (north-up); the master's cell is 1 of its own units.
+  c.secondary = diachron::Dsm(s, diachron::GeoTransform::north_up(0.0, size, 1.0));
+  c.master = diachron::Dsm(m, diachron::GeoTransform::north_up(0.0, h, 1.0));
+  return c;
+}
+
+// A coarser grid than the defaults (fewer hypotheses) keeps these tests quick.
+diachron::DsmCorrelationSearchOptions quick_options() {
+  diachron::DsmCorrelationSearchOptions o;
+  o.angle_step_deg = 15.0;
+  o.frame_scale_range = 1.6;
+  return o;
+}
+
+double max_error_px(const Case& c, const diachron::DsmCorrelationResult& r) {
+  double e = 0.0;
+  for (const Eigen::Vector2d& p : {Eigen::Vector2d(0, 0), Eigen::Vector2d(c.master.width() - 1, 0),
+                                   Eigen::Vector2d(0, c.master.height() - 1),
+                                   Eigen::Vector2d(c.master.width() - 1, c.master.height() - 1)})
+    e = std::max(e, (r(p) - c.truth(p)).norm());
+  return e;
+}
+
+}  // namespace
+
+TEST_CASE("DsmCorrelationSearch: recovers a known rotation, scale and shift, height units and datum aside", "[terrain]") {
+  const Terrain terrain(11);
+  const Case c = make_case(terrain, terrain, 1.4, 127.0, {42.0, 38.0}, 32, 28, false, 84);
+  const diachron::DsmCorrelationResult r = diachron::dsm_correlation_search(c.master, c.secondary);
+  INFO(r.message);
+  REQUIRE(r.success);
+  CHECK_FALSE(r.mirrored);
+  CHECK(r.scale == Approx(1.4).epsilon(0.02));
+  CHECK(std::abs(std::remainder(r.angle - c.angle, 2.0 * diachron::kPi)) < diachron::deg_to_rad(2.0));
+  // The master's corners lie up to 30 secondary pixels from its centre: about a pixel of precision.
+  CHECK(max_error_px(c, r) < 2.0);
+  CHECK(r.score > 0.95);
+  CHECK(r.hypotheses > 100);
+  CHECK(r.height_gain == Approx(r.expected_gain).epsilon(0.05));
+  // Correspondences lie on the truth: secondary X/Y of each is where the truth puts its master cell.
+  const std::vector<diachron::PointPair3> pairs = diachron::dsm_correlation_correspondences(c.master, c.secondary, r, 200);
+  CHECK(pairs.size() > 100);
+}
+
+TEST_CASE("DsmCorrelationSearch: partial overlap and holes on both sides", "[terrain]") {
+  const Terrain terrain(23);
+  // The master's centre maps near the secondary's right edge: about half of it lies outside.
+  const Case c = make_case(terrain, terrain, 0.8, -64.0, {112.0, 60.0}, 70, 60, true);
+  const diachron::DsmCorrelationResult r = diachron::dsm_correlation_search(c.master, c.secondary, quick_options());
+  INFO(r.message);
+  REQUIRE(r.success);
+  CHECK(max_error_px(c, r) < 2.0);
+}
+
+TEST_CASE("DsmCorrelationSearch: no answer on unrelated DSMs", "[terrain]") {
+  const Case c = make_case(Terrain(5), Terrain(99), 1.2, 30.0, {60.0, 60.0}, 40, 40, false);
+  const diachron::DsmCorrelationResult r = diachron::dsm_correlation_search(c.master, c.secondary, quick_options());
+  INFO(r.message);
+  CHECK_FALSE(r.success);
+  CHECK_FALSE(r.message.empty());
+}
+
+TEST_CASE("DsmCorrelationSearch: bad input throws diachron::Error", "[terrain]") {
+  const Terrain terrain(1);
+  const Case c = make_case(terrain, terrain, 1.0, 0.0, {60.0, 60.0}, 30, 30, false);
+  CHECK_THROWS_AS(diachron::dsm_correlation_search(diachron::Dsm(), c.secondary), diachron::Error);
+  diachron::DsmCorrelationSearchOptions o;
+  o.frame_scale_range = 0.5;
+  CHECK_THROWS_AS(diachron::dsm_correlation_search(c.master, c.secondary, o), diachron::Error);
+  o = {};
+  o.angle_step_deg = 0.0;
+  CHECK_THROWS_AS(diachron::dsm_correlation_search(c.master, c.secondary, o), diachron::Error);
+  diachron::DsmCorrelationResult r;
+  CHECK_THROWS_AS(diachron::dsm_correlation_correspondences(c.master, c.secondary, r, 0), diachron::Error);
+}
