@@ -51,9 +51,12 @@
 #include <diachron/camera/micmac_conversion.hpp>
 #include <diachron/camera/pose.hpp>
 #include <diachron/terrain/dsm.hpp>
+#include <diachron/terrain/dsm_correlation_search.hpp>
 #include <diachron/terrain/dsm_image.hpp>
+#include <diachron/terrain/fft2.hpp>
 #include <diachron/terrain/gsd.hpp>
 #include <diachron/terrain/local_affine.hpp>
+#include <diachron/terrain/masked_ncc.hpp>
 #include <diachron/terrain/ray_dsm_intersection.hpp>
 #include <diachron/terrain/relief_image.hpp>
 #include <diachron/terrain/transfer.hpp>
