@@ -146,6 +146,8 @@ TEST_CASE("correlation precise matching: correct matches on every pair, whatever
   REQUIRE(f.pairs.size() >= 2);
   PreciseMatchingOptions options;
   options.threads = 2;
+  // Coarser cells than the default 6 px keep the test quick; accuracy does not depend on density.
+  options.correlation.interest.cell_px = 10;
   const PreciseMatchingReport report = precise_matching_correlation(epoch_view(f, 0), epoch_view(f, 1),
                                                                     f.scene.epoch2_from_epoch1(), f.pairs, options);
   INFO(report.message);
