@@ -69,8 +69,10 @@
 #include <diachron/validation/ground_filter.hpp>
 #include <diachron/validation/match_filter.hpp>
 #include <diachron/validation/ncc_validator.hpp>
+#include <diachron/matching/correlation_matcher.hpp>
 #include <diachron/matching/descriptor_matching.hpp>
 #include <diachron/matching/features.hpp>
+#include <diachron/matching/grid_interest_points.hpp>
 #include <diachron/matching/guided_matcher.hpp>
 #include <diachron/matching/point_index_2d.hpp>
 #include <diachron/matching/point_match.hpp>
