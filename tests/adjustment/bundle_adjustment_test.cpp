@@ -9,6 +9,7 @@
 #include <diachron/adjustment/bundle_adjustment.hpp>
 #include <diachron/adjustment/tracks.hpp>
 #include <diachron/core/error.hpp>
+#include <diachron/eval/distortion_difference.hpp>
 
 #include "adjustment/block_fixture.hpp"
 
@@ -30,21 +31,6 @@ BundleOptions reference_fixed() {
   BundleOptions o;
   o.epochs = {EpochFreedom::all_free(), EpochFreedom::all_fixed()};
   return o;
-}
-
-// Largest pixel difference over the image between the distortion (everything but f and the
-// principal point) of two cameras.
-double distortion_difference_px(const Camera<FraserAffine>& a, const Camera<FraserAffine>& b) {
-  double worst = 0.0;
-  for (double u = 0.0; u <= a.width() - 1; u += a.width() / 16.0)
-    for (double v = 0.0; v <= a.height() - 1; v += a.height() / 12.0) {
-      const Vec2 pixel(u, v);
-      const Vec2 xa = *a.normalized_from_pixel(pixel), xb = *b.normalized_from_pixel(pixel);
-      const Vec2 da = pixel - a.principal_point() - a.focal() * xa;
-      const Vec2 db = pixel - b.principal_point() - b.focal() * xb;
-      worst = std::max(worst, (da - db).norm());
-    }
-  return worst;
 }
 
 // RMS error (world units) of the true ground points triangulated from their true pixels in the
@@ -105,8 +91,13 @@ TEST_CASE("bundle_adjust: Nominal, the reference epoch fixed recovers the other 
   CHECK(std::abs(adjusted.focal() - truth.focal()) < 3.0 * values[0].sigma);
   CHECK(std::abs(adjusted.cx() - truth.cx()) < 3.0 * values[1].sigma);
   CHECK(std::abs(adjusted.cy() - truth.cy()) < 3.0 * values[2].sigma);
-  CHECK(distortion_difference_px(adjusted, truth) < 0.5);
-  CHECK(distortion_difference_px(input.frames[0].camera(), truth) > 1.0);
+  // Over the whole image, corners included (beyond the outermost tie points, where the error of
+  // the recovered distortion is largest: 0.55 px there, against 0.09 px RMS over the image).
+  const DistortionDifference recovered = distortion_difference(adjusted, truth);
+  INFO("distortion error: RMS " << recovered.rms_px << " px, worst " << recovered.max_px << " px");
+  CHECK(recovered.rms_px < 0.2);
+  CHECK(recovered.max_px < 0.7);
+  CHECK(distortion_difference(input.frames[0].camera(), truth).max_px > 1.0);
 
   // Report of the intrinsics: camera 0 free with standard deviations, camera 1 fixed.
   REQUIRE(rep.cameras.size() == 2);
@@ -151,7 +142,7 @@ TEST_CASE("bundle_adjust: staged intrinsics reach the same solution", "[adjustme
   CHECK(staged.report.solves.size() >= 3);
   CHECK(staged.report.solves[0].stage == "focal+pp");
   CHECK(std::abs(staged.report.after.all.rms_px - plain.report.after.all.rms_px) < 0.01);
-  CHECK(distortion_difference_px(staged.frames[0].camera(), plain.frames[0].camera()) < 0.1);
+  CHECK(distortion_difference(staged.frames[0].camera(), plain.frames[0].camera()).max_px < 0.1);
 }
 
 TEST_CASE("bundle_adjust: EstimateRobust, gross outliers are rejected and the solve repeated", "[adjustment]") {

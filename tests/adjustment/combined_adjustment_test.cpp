@@ -9,6 +9,7 @@
 
 #include <diachron/adjustment/triangulation.hpp>
 #include <diachron/core/error.hpp>
+#include <diachron/eval/distortion_difference.hpp>
 #include <diachron/geometry/rotation.hpp>
 #include <diachron/pipeline/combined_adjustment.hpp>
 #include <diachron/synth/scene.hpp>
@@ -102,17 +103,6 @@ double check_point_rms(const Scene& s, const std::vector<Frame<FraserAffine>>& f
   return n > 0 ? std::sqrt(sum / n) : std::numeric_limits<double>::infinity();
 }
 
-double distortion_difference_px(const Camera<FraserAffine>& a, const Camera<FraserAffine>& b) {
-  double worst = 0.0;
-  for (double u = 0.0; u <= a.width() - 1; u += a.width() / 16.0)
-    for (double v = 0.0; v <= a.height() - 1; v += a.height() / 12.0) {
-      const Vec2 pixel(u, v);
-      const Vec2 xa = *a.normalized_from_pixel(pixel), xb = *b.normalized_from_pixel(pixel);
-      worst = std::max(worst, ((pixel - a.principal_point() - a.focal() * xa) - (pixel - b.principal_point() - b.focal() * xb)).norm());
-    }
-  return worst;
-}
-
 }  // namespace
 
 TEST_CASE("combined_adjustment: Nominal, check points 3x closer than the rough Helmert, distortion within 0.5 px",
@@ -138,8 +128,8 @@ TEST_CASE("combined_adjustment: Nominal, check points 3x closer than the rough H
   CHECK(after * 3.0 < before);
   CHECK(after < 1.5 * gsd_e2);
 
-  const double distortion_before = distortion_difference_px(e1.frames[0].camera(), s.epochs[0].camera);
-  const double distortion_after = distortion_difference_px(r.epoch1[0].camera(), s.epochs[0].camera);
+  const double distortion_before = distortion_difference(e1.frames[0].camera(), s.epochs[0].camera).max_px;
+  const double distortion_after = distortion_difference(r.epoch1[0].camera(), s.epochs[0].camera).max_px;
   INFO("distortion " << distortion_before << " -> " << distortion_after << " px");
   CHECK(distortion_after < 0.5);
   // Epoch 2 is the fixed reference.
