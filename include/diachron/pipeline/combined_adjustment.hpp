@@ -73,6 +73,13 @@ struct CombinedAdjustmentResult {
   /// moved by the rough Helmert and epoch 2 as given.
   std::vector<Frame<FraserAffine>> epoch1;
   std::vector<Frame<FraserAffine>> epoch2;
+  /// The tracks adjusted, over one image list: epoch 1's images first (0 .. n1 - 1), then epoch
+  /// 2's (n1 + index in epoch 2); for residual pictures and for exports with points.
+  std::vector<Track> track_list;
+  /// Adjusted point of each track, epoch-2 frame; NaN for tracks not used (or on failure).
+  std::vector<Eigen::Vector3d> points;
+  /// Whether each track took part to the end (after rejection).
+  std::vector<bool> track_used;
 };
 
 /// Runs the combined adjustment.
@@ -122,7 +129,8 @@ inline CombinedAdjustmentResult combined_adjustment(const CombinedEpoch& epoch1,
   }
   TrackSet tracks = build_tracks(ties, links, n1 + n2, options.tracks);
   result.tracks = tracks.report;
-  input.tracks = std::move(tracks.tracks);
+  input.tracks = tracks.tracks;
+  result.track_list = std::move(tracks.tracks);
 
   BundleOptions bundle = options.bundle;
   if (bundle.epochs.empty())
@@ -133,6 +141,8 @@ inline CombinedAdjustmentResult combined_adjustment(const CombinedEpoch& epoch1,
   if (!result.report.success) return result;
   result.epoch1.assign(adjusted.frames.begin(), adjusted.frames.begin() + n1);
   result.epoch2.assign(adjusted.frames.begin() + n1, adjusted.frames.end());
+  result.points = std::move(adjusted.points);
+  result.track_used = std::move(adjusted.track_used);
   return result;
 }
 
