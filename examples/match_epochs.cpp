@@ -10,12 +10,21 @@
 //   DIR/Homol/              final inter-epoch tie points, MicMac Homol (both directions; names as in images.txt)
 //   DIR/report.json         counts per stage and per pair, timings
 //   DIR/pairs/<a>--<b>.png  each pair's final matches
-// Progress on stderr. Exit status: 0 success, 2 no co-registration or no match (reason printed),
-// 1 bad input (one line). The stages are pipeline/rough_coregistration.hpp,
+// and with --adjust (the combined adjustment, pipeline/combined_adjustment.hpp: epoch 2 fixed,
+// epoch 1's poses, Fraser camera and affine parts free, intra-epoch tie points from points3D.txt
+// and the inter-epoch ones above), in epoch 2's frame:
+//   DIR/adjusted/cameras.json, DIR/adjusted/<epoch>/  the adjusted orientation (io/adjusted_export.hpp)
+//   DIR/adjusted/residuals/<image>.png                 reprojection residuals of epoch 1's tie points
+//   the "adjustment" section of report.json
+// Progress on stderr. Exit status: 0 success, 2 no co-registration, no match or no adjustment
+// (reason printed), 1 bad input (one line). The input folders are never written to. The stages are pipeline/rough_coregistration.hpp,
 // pipeline/overlapping_pairs.hpp and pipeline/precise_matching.hpp; docs/precise-matching.md says
 // how the defaults were chosen.
 
+#include <cmath>
 #include <cstdio>
+#include <map>
+#include <optional>
 #include <fstream>
 #include <iostream>
 #include <memory>
@@ -35,6 +44,12 @@
 #include <diachron/vision/extractor_pair_matcher.hpp>
 #include <diachron/vision/sift.hpp>
 #include <diachron/vision/xfeat.hpp>
+#if DIACHRON_MATCH_EPOCHS_ADJUST
+#include <diachron/io/adjusted_export.hpp>
+#include <diachron/pipeline/combined_adjustment.hpp>
+#include <diachron/vision/draw_residuals.hpp>
+#include <glog/logging.h>
+#endif
 
 namespace {
 
@@ -57,6 +72,12 @@ const char* kUsage =
     "  --no-ground-filter                     skip the 3D Helmert RANSAC\n"
     "  --no-ncc                               skip the NCC validator\n"
     "  --no-pictures                          do not write pairs/*.png\n"
+    "  --adjust                               then the combined adjustment (epoch 2 fixed, epoch 1\n"
+    "                                         self-calibrated): DIR/adjusted/"
+#if !DIACHRON_MATCH_EPOCHS_ADJUST
+    " (not in this build: no Ceres)"
+#endif
+    "\n"
     "  --threads N                            worker threads, 0 = all cores (default 0)\n"
     "  --quiet                                no progress on stderr\n";
 
@@ -83,13 +104,122 @@ void make_directory(const std::string& path) {
   DIACHRON_CHECK(::stat(path.c_str(), &info) == 0 && S_ISDIR(info.st_mode), "cannot create folder " << path);
 }
 
+#if DIACHRON_MATCH_EPOCHS_ADJUST
+// An epoch's name in adjusted/: its folder's name ("/data/1954/" -> "1954").
+std::string folder_name(std::string dir) {
+  while (dir.size() > 1 && dir.back() == '/') dir.pop_back();
+  const std::size_t slash = dir.find_last_of('/');
+  return slash == std::string::npos ? dir : dir.substr(slash + 1);
+}
+
+// The epoch as the combined adjustment takes it: the frames and the tracks of points3D.txt as
+// intra-epoch tie points (pixels in diachron's convention).
+CombinedEpoch combined_epoch(const EpochFolder& e) {
+  CombinedEpoch out;
+  std::map<std::uint32_t, int> index;
+  for (std::size_t i = 0; i < e.images.size(); ++i) {
+    out.frames.push_back(e.images[i].frame);
+    index[e.images[i].id] = static_cast<int>(i);
+  }
+  for (const auto& [id, point] : e.model.points3d) {
+    std::vector<ImagePixel> tie;
+    for (const ColmapTrackElement& t : point.track) {
+      const ColmapImage& image = e.model.images.at(t.image_id);
+      tie.push_back({index.at(t.image_id), diachron_pixel_from_colmap(image.points2d.at(t.point2d_index).xy)});
+    }
+    if (tie.size() >= 2) out.tie_points.push_back(std::move(tie));
+  }
+  return out;
+}
+
+std::string json_rms(const ResidualRms& r) {
+  std::ostringstream o;
+  o.precision(6);
+  o << "{\"rms_px\": ";
+  if (std::isfinite(r.rms_px)) o << r.rms_px;
+  else o << "null";
+  o << ", \"observations\": " << r.observations << "}";
+  return o.str();
+}
+
+std::string json_number_or_null(double v) {
+  if (!std::isfinite(v)) return "null";
+  std::ostringstream o;
+  o.precision(10);
+  o << v;
+  return o.str();
+}
+
+// The "adjustment" section of report.json.
+std::string adjustment_json(const CombinedAdjustmentResult& a, const AdjustedExportReport* exported) {
+  const BundleReport& r = a.report;
+  std::ostringstream o;
+  o << "  \"adjustment\": {\"success\": " << (r.success ? "true" : "false") << ", \"message\": " << quoted(r.message)
+    << ",\n    \"tracks\": {\"input\": " << r.tracks_input << ", \"used\": " << r.tracks_used
+    << ", \"inter_epoch\": " << r.inter_epoch_tracks << ", \"rejected\": " << r.tracks_rejected
+    << ", \"dropped_conflicting\": " << a.tracks.dropped_conflicting << "}, \"observations\": {\"used\": "
+    << r.observations_used << ", \"rejected\": " << r.observations_rejected << "},\n    \"before\": {\"all\": "
+    << json_rms(r.before.all) << ", \"intra_epoch\": " << json_rms(r.before.intra_epoch)
+    << ", \"inter_epoch\": " << json_rms(r.before.inter_epoch) << "},\n    \"after\": {\"all\": "
+    << json_rms(r.after.all) << ", \"intra_epoch\": " << json_rms(r.after.intra_epoch)
+    << ", \"inter_epoch\": " << json_rms(r.after.inter_epoch) << "},\n    \"sigma0\": " << json_number_or_null(r.sigma0)
+    << ", \"covariance\": " << quoted(r.covariance_available ? "available" : r.covariance_message)
+    << ",\n    \"cameras\": [";
+  for (std::size_t c = 0; c < r.cameras.size(); ++c) {
+    o << (c ? ",\n      " : "\n      ") << "{\"camera\": " << r.cameras[c].camera << ", \"free\": "
+      << (r.cameras[c].free ? "true" : "false") << ", \"values\": {";
+    for (std::size_t k = 0; k < r.cameras[c].values.size(); ++k) {
+      const ParameterChange& p = r.cameras[c].values[k];
+      o << (k ? ", " : "") << quoted(p.name) << ": {\"before\": " << json_number_or_null(p.before)
+        << ", \"after\": " << json_number_or_null(p.after) << ", \"sigma\": " << json_number_or_null(p.sigma) << "}";
+    }
+    o << "}}";
+  }
+  o << "],\n    \"solves\": [";
+  for (std::size_t k = 0; k < r.solves.size(); ++k)
+    o << (k ? ", " : "") << "{\"stage\": " << quoted(r.solves[k].stage) << ", \"termination\": "
+      << quoted(r.solves[k].termination) << ", \"iterations\": " << r.solves[k].iterations
+      << ", \"seconds\": " << r.solves[k].seconds << "}";
+  o << "],\n    \"max_conversion_error_px\": "
+    << (exported ? json_number_or_null(exported->max_conversion_error_px) : std::string("null"))
+    << ", \"seconds\": " << r.seconds << "},\n";
+  return o.str();
+}
+
+// One picture per epoch-1 image: its tie-point observations and their reprojection residuals
+// after the adjustment (observed - projected), magnified.
+void write_residual_pictures(const std::string& dir, const EpochFolder& e1, const CombinedAdjustmentResult& a) {
+  make_directory(dir);
+  const std::size_t n1 = e1.images.size();
+  std::vector<std::vector<Vec2>> pixels(n1), residuals(n1);
+  for (std::size_t t = 0; t < a.track_list.size(); ++t) {
+    if (!a.track_used[t]) continue;
+    for (const TrackObservation& o : a.track_list[t].observations) {
+      if (o.image < 0 || static_cast<std::size_t>(o.image) >= n1) continue;
+      const std::optional<Vec2> p = a.epoch1[static_cast<std::size_t>(o.image)].project(a.points[t]);
+      if (!p) continue;
+      pixels[static_cast<std::size_t>(o.image)].push_back(o.pixel);
+      residuals[static_cast<std::size_t>(o.image)].push_back(o.pixel - *p);
+    }
+  }
+  for (std::size_t i = 0; i < n1; ++i) {
+    std::string name = safe(e1.images[i].name);
+    const std::size_t dot = name.find_last_of('.');
+    if (dot != std::string::npos && dot > 0) name.erase(dot);  // "a.tif" -> "a.png"
+    write_residuals_png(dir + "/" + name + ".png", e1.load_image(i), pixels[i], residuals[i]);
+  }
+}
+#endif
+
 void write_report(const std::string& path, const EpochFolder& e1, const EpochFolder& e2,
                   const RoughCoregistrationReport& rough, const OverlappingPairsResult& overlap,
-                  const PreciseMatchingReport& precise, const std::string& method, const std::string& matcher) {
+                  const PreciseMatchingReport& precise, const std::string& method, const std::string& matcher,
+                  const std::string& adjustment_section = "") {
   std::ofstream out(path);
   DIACHRON_CHECK(out.good(), "cannot write " << path);
   out.precision(10);
   out << "{\n  \"method\": " << quoted(method) << ",\n  \"matcher\": " << quoted(matcher) << ",\n";
+  out << adjustment_section;
   out << "  \"rough_coregistration\": {\"success\": " << (rough.success ? "true" : "false")
       << ", \"message\": " << quoted(rough.message) << ", \"inliers_2d\": " << rough.inliers_2d.size()
       << ", \"inliers_3d\": " << rough.inliers_3d.size() << ", \"rms_3d\": " << rough.rms_3d
@@ -125,9 +255,14 @@ int main(int argc, char** argv) {
   std::string dir1, dir2, out_dir, method = "correlation", matcher_name = "rootsift", model_path, measure;
   PreciseMatchingOptions options;
   OverlappingPairsOptions overlap_options;
-  bool quiet = false, pictures = true;
+  bool quiet = false, pictures = true, adjust = false;
   double min_overlap = 0.1;
   std::size_t threads = 0;
+#if DIACHRON_MATCH_EPOCHS_ADJUST
+  // Ceres logs through glog on stderr (e.g. a trust-region step it rejected); the adjustment's
+  // report and report.json say what matters, so only fatal messages are let through.
+  FLAGS_minloglevel = google::GLOG_FATAL;
+#endif
   try {
     for (int i = 1; i < argc; ++i) {
       const std::string a = argv[i];
@@ -147,6 +282,7 @@ int main(int argc, char** argv) {
       else if (a == "--no-ncc") options.use_ncc = false;
       else if (a == "--no-pictures") pictures = false;
       else if (a == "--threads") threads = std::stoul(value());
+      else if (a == "--adjust") adjust = true;
       else if (a == "--quiet") quiet = true;
       else if (a == "--help" || a == "-h") {
         std::cout << kUsage;
@@ -157,6 +293,9 @@ int main(int argc, char** argv) {
       else DIACHRON_CHECK(false, "unexpected argument " << a);
     }
     DIACHRON_CHECK(!dir1.empty() && !dir2.empty() && !out_dir.empty(), "two epoch folders and --out DIR are required");
+#if !DIACHRON_MATCH_EPOCHS_ADJUST
+    DIACHRON_CHECK(!adjust, "--adjust needs a build with Ceres (diachron::adjustment)");
+#endif
     DIACHRON_CHECK(method == "patch" || method == "guided" || method == "correlation",
                    "unknown --method '" << method << "' (correlation, patch or guided)");
     if (measure == "intensity") options.correlation.match.measure = CorrelationMeasure::intensity;
@@ -271,6 +410,44 @@ int main(int argc, char** argv) {
       std::printf("no inter-epoch match: %s\n", precise.message.c_str());
       return 2;
     }
+#if DIACHRON_MATCH_EPOCHS_ADJUST
+    if (adjust) {
+      // 5. The combined adjustment, epoch 2 as the reference.
+      const CombinedAdjustmentResult adjusted = combined_adjustment(
+          combined_epoch(e1), combined_epoch(e2), epoch_pair_matches(precise.pairs), rough.epoch2_from_epoch1);
+      const BundleReport& r = adjusted.report;
+      std::printf("adjustment: %s\n", r.message.c_str());
+      if (!r.success) {
+        write_report(out_dir + "/report.json", e1, e2, rough, overlap, precise, method, matcher_name,
+                     adjustment_json(adjusted, nullptr));
+        std::printf("no adjustment: %s\n", r.message.c_str());
+        return 2;
+      }
+      // adjusted/<epoch>/ takes each folder's name; two folders of the same name become epoch1, epoch2.
+      std::string name1 = folder_name(dir1), name2 = folder_name(dir2);
+      if (name1 == name2 || name1.empty() || name2.empty() || name1 == "." || name2 == "." || name1 == ".." ||
+          name2 == ".." || name1 == "residuals" || name2 == "residuals") {
+        name1 = "epoch1";
+        name2 = "epoch2";
+      }
+      std::vector<CamerasJsonImage> images;
+      for (std::size_t i = 0; i < e1.images.size(); ++i)
+        images.push_back(CamerasJsonImage::from_frame(e1.images[i].name, name1, adjusted.epoch1[i]));
+      for (std::size_t i = 0; i < e2.images.size(); ++i)
+        images.push_back(CamerasJsonImage::from_frame(e2.images[i].name, name2, adjusted.epoch2[i]));
+      AdjustedExportOptions export_options;
+      export_options.protected_folders = {dir1, dir2};
+      const AdjustedExportReport exported = write_adjusted_export(images, out_dir, export_options);
+      if (pictures) write_residual_pictures(out_dir + "/adjusted/residuals", e1, adjusted);
+      write_report(out_dir + "/report.json", e1, e2, rough, overlap, precise, method, matcher_name,
+                   adjustment_json(adjusted, &exported));
+      std::printf("reprojection RMS %.3f -> %.3f px (inter-epoch %.3f -> %.3f px); wrote %s and %s "
+                  "(largest COLMAP conversion error %.3f px)\n",
+                  r.before.all.rms_px, r.after.all.rms_px, r.before.inter_epoch.rms_px, r.after.inter_epoch.rms_px,
+                  exported.cameras_json_path.c_str(), (out_dir + "/adjusted/<epoch>").c_str(),
+                  exported.max_conversion_error_px);
+    }
+#endif
     return 0;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "match_epochs: %s\n", e.what());

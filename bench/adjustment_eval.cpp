@@ -1,0 +1,391 @@
+// The whole of Algorithm 1 on decades-apart scenes, judged at the check points: for each seed of
+// SceneOptions::decades_apart(), the rough co-registration of the DSMs, the overlapping pairs, precise
+// matching (match_epochs' default method) and then, side by side on the same tracks,
+//   rough        epoch 1 (estimated orientation) moved by the rough Helmert, nothing adjusted
+//   intra only   epoch 1 adjusted alone with its own tie points (self-calibration, no inter-epoch
+//                link), then moved by the rough Helmert: the control
+//   no affine    the combined adjustment without B1, B2
+//   full         the combined adjustment as shipped (pipeline/combined_adjustment.hpp)
+//   colmap       Debian's COLMAP 3.8 bundle_adjuster on the same images and tracks (nearest COLMAP
+//                cameras, no affine term; everything free, so its result is brought back onto epoch
+//                2's fixed orientation by the similarity of its epoch-2 centres onto the input's)
+// Check points: their true pixels in the epoch-1 images triangulated with each orientation, against
+// their true position; in world metres and in epoch-1 GSD. Intrinsics: epoch 1's recovered focal
+// length, principal point and distortion (eval/distortion_difference.hpp) against the true camera.
+//
+//   adjustment_eval [--seeds N] [--first-seed S] [--threads N] [--no-colmap] [--colmap-work DIR]
+//
+// Prints one line per seed and variant on stderr and a Markdown table (medians over the seeds) on
+// stdout. Not a test: docs/adjustment.md holds its output.
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <sys/stat.h>
+
+#include <diachron/adjustment/bundle_adjustment.hpp>
+#include <diachron/adjustment/tracks.hpp>
+#include <diachron/adjustment/triangulation.hpp>
+#include <diachron/eval/check_points.hpp>
+#include <diachron/eval/distortion_difference.hpp>
+#include <diachron/eval/match_truth.hpp>
+#include <diachron/eval/scene_check_points.hpp>
+#include <diachron/geometry/procrustes.hpp>
+#include <diachron/io/cameras_json.hpp>
+#include <diachron/pipeline/combined_adjustment.hpp>
+#include <diachron/pipeline/overlapping_pairs.hpp>
+#include <diachron/pipeline/precise_matching.hpp>
+#include <diachron/pipeline/rough_coregistration.hpp>
+#include <diachron/synth/scene.hpp>
+#include <diachron/vision/extractor_pair_matcher.hpp>
+#include <diachron/vision/sift.hpp>
+
+#include "match_scoring.hpp"
+#include "peers/colmap_bundle_adjuster.hpp"
+
+using namespace diachron;
+using bench::median;
+using bench::seconds_since;
+
+namespace {
+
+using Frames = std::vector<Frame<FraserAffine>>;
+
+// One variant's result on one seed.
+struct Outcome {
+  bool ran = false;
+  std::string note;
+  CheckPointReport check;
+  double focal_error_px = std::nan("");
+  double pp_error_px = std::nan("");
+  double distortion_px = std::nan("");
+  double distortion_rms_px = std::nan("");
+  double seconds = 0.0;
+};
+
+const char* const kVariants[] = {"rough",          "intra only",   "no affine",         "full",
+                                 "e2 camera free", "both free",    "oracle e2 frames", "oracle matches",
+                                 "colmap"};
+
+// Check points of epoch 1 triangulated with `frames` (epoch-2 frame), errors in world metres.
+CheckPointReport check_points(const Scene& scene, const Frames& frames) {
+  const SyntheticEpoch& e1 = scene.epochs[0];
+  const Helmert3 world_from_e2 = scene.epochs[1].world_from_epoch;
+  std::vector<ObservedCheckPoint> points = scene_check_points(scene, 0, 1);
+  for (ObservedCheckPoint& p : points) p.truth = world_from_e2(p.truth);
+  return evaluate_check_points(
+      points,
+      [&](const std::vector<CheckPointObservation>& obs) -> std::optional<Vec3> {
+        std::vector<const Frame<FraserAffine>*> views;
+        std::vector<Vec2> pixels;
+        for (const CheckPointObservation& o : obs) {
+          views.push_back(&frames.at(o.image));
+          pixels.push_back(o.pixel);
+        }
+        if (views.size() < 2) return std::nullopt;
+        const TriangulationResult t = triangulate_point(views, pixels);
+        if (!t.success) return std::nullopt;
+        return world_from_e2(t.point);
+      },
+      e1.gsd_m);
+}
+
+void judge(Outcome& o, const Scene& scene, const Frames& epoch1) {
+  const Camera<FraserAffine>& truth = scene.epochs[0].camera;
+  const Camera<FraserAffine>& camera = epoch1.front().camera();
+  o.ran = true;
+  o.check = check_points(scene, epoch1);
+  o.focal_error_px = std::abs(camera.focal() - truth.focal());
+  o.pp_error_px = (camera.principal_point() - truth.principal_point()).norm();
+  o.distortion_px = distortion_difference(camera, truth).max_px;
+}
+
+Frames moved(const Frames& frames, const Helmert3& h) {
+  Frames out;
+  for (const auto& f : frames) out.push_back(f.transformed(h));
+  return out;
+}
+
+std::vector<std::vector<ImagePixel>> tie_points(const SyntheticEpoch& e) {
+  std::vector<std::vector<ImagePixel>> out;
+  for (const TiePoint& t : e.tie_points) {
+    out.emplace_back();
+    for (const ImageObservation& o : t.observations) out.back().push_back({o.image, o.pixel});
+  }
+  return out;
+}
+
+// COLMAP's bundle_adjuster on the combined problem (epoch 1 moved by the rough Helmert, then epoch
+// 2), then the similarity that puts its epoch-2 centres back on the input's.
+Outcome run_colmap(const Scene& scene, const Frames& e1_moved, const Frames& frames2,
+                   const std::vector<EpochPairMatches>& matches, const std::string& work) {
+  Outcome o;
+  Frames all = e1_moved;
+  all.insert(all.end(), frames2.begin(), frames2.end());
+  const int n1 = static_cast<int>(e1_moved.size());
+  std::vector<std::vector<ImagePixel>> ties = tie_points(scene.epochs[0]);
+  for (const auto& t : tie_points(scene.epochs[1])) {
+    ties.emplace_back();
+    for (const ImagePixel& p : t) ties.back().push_back({p.image + n1, p.pixel});
+  }
+  std::vector<ImageMatch> links;
+  for (const EpochPairMatches& pair : matches)
+    for (const PointMatch& m : pair.matches)
+      links.push_back({{static_cast<int>(pair.master), m.a}, {n1 + static_cast<int>(pair.secondary), m.b}});
+  const TrackSet tracks = build_tracks(ties, links, static_cast<int>(all.size()));
+
+  bench::BaProblem problem;
+  for (std::size_t i = 0; i < all.size(); ++i) {
+    const bool first = static_cast<int>(i) < n1;
+    const SyntheticImage& image = scene.epochs[first ? 0 : 1].images[first ? i : i - n1];
+    problem.images.push_back(CamerasJsonImage::from_frame(image.name, first ? "e1" : "e2", all[i]));
+  }
+  for (const Track& t : tracks.tracks) {
+    const TriangulationResult p = triangulate_track(all, t);
+    if (!p.success) continue;
+    bench::BaTrack bt;
+    bt.point = p.point;
+    for (const TrackObservation& ob : t.observations) bt.observations.push_back({static_cast<std::size_t>(ob.image), ob.pixel});
+    problem.tracks.push_back(std::move(bt));
+  }
+  const bench::ColmapBundleAdjusterRun run = bench::run_colmap_bundle_adjuster(problem, work);
+  o.seconds = run.seconds;
+  if (!run.success) {
+    o.note = run.reason;
+    return o;
+  }
+  // COLMAP fixes its own gauge (the first image and one coordinate of the second); epoch 2 is the
+  // reference, so its adjusted centres are fitted back onto the input ones.
+  std::vector<PointPair3> centres;
+  for (std::size_t i = static_cast<std::size_t>(n1); i < all.size(); ++i)
+    centres.push_back({run.images[i].centre, all[i].pose().centre()});
+  const std::optional<Helmert3> back = fit_helmert3(centres);
+  if (!back) {
+    o.note = "epoch-2 centres of COLMAP's result do not determine a similarity";
+    return o;
+  }
+  Frames e1;
+  for (int i = 0; i < n1; ++i) e1.push_back(run.images[static_cast<std::size_t>(i)].frame().transformed(*back));
+  judge(o, scene, e1);
+  o.seconds = run.seconds;
+  return o;
+}
+
+std::string fmt(double v, const char* f = "%.2f") {
+  if (!std::isfinite(v)) return "-";
+  char b[64];
+  std::snprintf(b, sizeof b, f, v);
+  return b;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  int seeds = 5;
+  std::uint64_t first_seed = 0;
+  std::size_t threads = 0;
+  bool colmap = true;
+  std::string colmap_work = "adjustment_eval_colmap";
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    const auto value = [&]() -> std::string {
+      if (i + 1 >= argc) throw std::runtime_error(a + " needs a value");
+      return argv[++i];
+    };
+    if (a == "--seeds") seeds = std::stoi(value());
+    else if (a == "--first-seed") first_seed = std::stoull(value());
+    else if (a == "--threads") threads = std::stoul(value());
+    else if (a == "--no-colmap") colmap = false;
+    else if (a == "--colmap-work") colmap_work = value();
+    else {
+      std::fprintf(stderr,
+                   "usage: adjustment_eval [--seeds N] [--first-seed S] [--threads N] [--no-colmap] [--colmap-work DIR]\n");
+      return 1;
+    }
+  }
+  if (colmap) ::mkdir(colmap_work.c_str(), 0755);  // run_colmap_bundle_adjuster makes one level below it
+  std::map<std::string, std::vector<Outcome>> results;
+  std::vector<double> inter_matches, inter_correct;
+  int coregistered = 0;
+  for (int s = 0; s < seeds; ++s) {
+    SceneOptions scene_options = SceneOptions::decades_apart();
+    scene_options.seed = first_seed + static_cast<std::uint64_t>(s);
+    scene_options.threads = threads;
+    auto t0 = std::chrono::steady_clock::now();
+    const Scene scene = generate_scene(scene_options);
+    const SyntheticEpoch& e1 = scene.epochs[0];
+    const SyntheticEpoch& e2 = scene.epochs[1];
+    std::fprintf(stderr, "seed %llu: scene %.1f s\n", static_cast<unsigned long long>(scene_options.seed), seconds_since(t0));
+
+    // Algorithm 1: rough co-registration, overlapping pairs, precise matching.
+    RoughCoregistrationOptions rough_options;
+    rough_options.threads = threads;
+    const RoughCoregistrationReport rough =
+        rough_coregistration(e1.dsm, e2.dsm, ExtractorPairMatcher<SiftExtractor>(SiftExtractor{}), rough_options);
+    if (!rough.success) {
+      std::fprintf(stderr, "  rough co-registration failed: %s\n", rough.message.c_str());
+      for (const char* v : kVariants) results[v].push_back(Outcome{false, "no rough co-registration", {}, {}, {}, {}, 0.0});
+      continue;
+    }
+    ++coregistered;
+    const Helmert3& helmert = rough.epoch2_from_epoch1;
+    const Frames frames1 = e1.estimated_frames(), frames2 = e2.estimated_frames();
+    OverlappingPairsOptions overlap_options;
+    overlap_options.min_overlap_fraction = 0.1;
+    overlap_options.threads = threads;
+    const OverlappingPairsResult overlap = overlapping_pairs(make_footprint_images(frames1), e1.dsm,
+                                                             make_footprint_images(frames2), e2.dsm, helmert, overlap_options);
+    const PreciseEpoch<Frame<FraserAffine>> p1{frames1, [&e1](std::size_t i) { return e1.images[i].pixels; }, &e1.dsm};
+    const PreciseEpoch<Frame<FraserAffine>> p2{frames2, [&e2](std::size_t i) { return e2.images[i].pixels; }, &e2.dsm};
+    PreciseMatchingOptions precise_options;
+    precise_options.threads = threads;
+    t0 = std::chrono::steady_clock::now();
+    const PreciseMatchingReport precise = precise_matching_correlation(p1, p2, helmert, overlap.pairs, precise_options);
+    const double matching_seconds = seconds_since(t0);
+    const std::vector<EpochPairMatches> matches = epoch_pair_matches(precise.pairs);
+    const MatchTruthScorer truth(scene);
+    std::size_t count = 0, correct = 0;
+    for (const EpochPairMatches& pair : matches)
+      for (const PointMatch& m : pair.matches) {
+        ++count;
+        const MatchTruth t = truth.score({0, static_cast<int>(pair.master)}, {1, static_cast<int>(pair.secondary)}, m.a, m.b);
+        if (t.scored() && t.error_px < 3.0) ++correct;
+      }
+    inter_matches.push_back(static_cast<double>(count));
+    inter_correct.push_back(static_cast<double>(correct));
+    std::fprintf(stderr, "  %zu pairs, %zu inter-epoch matches (%zu within 3 px) in %.1f s\n", overlap.pairs.size(), count,
+                 correct, matching_seconds);
+
+    const Frames e1_moved = moved(frames1, helmert);
+    const CombinedEpoch c1{frames1, tie_points(e1)}, c2{frames2, tie_points(e2)};
+    {
+      Outcome o;
+      judge(o, scene, e1_moved);
+      results["rough"].push_back(o);
+    }
+    {
+      // The control: epoch 1 self-calibrated with its own tie points only, then placed by the Helmert.
+      Outcome o;
+      t0 = std::chrono::steady_clock::now();
+      BundleInput input;
+      input.frames = frames1;
+      TrackSet tracks = build_tracks(c1.tie_points, {}, static_cast<int>(frames1.size()));
+      input.tracks = std::move(tracks.tracks);
+      const BundleResult r = bundle_adjust(input, BundleOptions{});
+      o.seconds = seconds_since(t0);
+      if (r.report.success) judge(o, scene, moved(r.frames, helmert));
+      else o.note = r.report.message;
+      results["intra only"].push_back(o);
+    }
+    // The same master points matched by the truth (their true pixel in the secondary image): what the
+    // adjustment gives when the inter-epoch matches carry no error of their own.
+    std::vector<EpochPairMatches> true_matches;
+    for (const EpochPairMatches& pair : matches) {
+      EpochPairMatches t{pair.master, pair.secondary, {}};
+      for (const PointMatch& m : pair.matches) {
+        const MatchTruth mt = truth.transfer({0, static_cast<int>(pair.master)}, {1, static_cast<int>(pair.secondary)}, m.a);
+        if (mt.scored()) t.matches.push_back({m.a, mt.true_pixel});
+      }
+      true_matches.push_back(std::move(t));
+    }
+    for (const char* variant : {"no affine", "full", "e2 camera free", "both free", "oracle e2 frames", "oracle matches"}) {
+      const std::string v = variant;
+      Outcome o;
+      CombinedAdjustmentOptions options;
+      CombinedEpoch reference = c2;
+      if (v == "no affine") options.bundle.epochs = {EpochFreedom{true, true, false}, EpochFreedom::all_fixed()};
+      if (v == "e2 camera free") options.bundle.epochs = {EpochFreedom::all_free(), EpochFreedom{false, true, true}};
+      if (v == "both free") options.fix_reference_epoch = false;
+      if (v == "oracle e2 frames")
+        for (std::size_t i = 0; i < e2.images.size(); ++i) reference.frames[i] = e2.epoch_frame(i);
+      t0 = std::chrono::steady_clock::now();
+      const CombinedAdjustmentResult r =
+          combined_adjustment(c1, reference, v == "oracle matches" ? true_matches : matches, helmert, options);
+      o.seconds = seconds_since(t0);
+      if (r.report.success) {
+        Frames e1_adjusted = r.epoch1;
+        if (v == "both free") {
+          // The datum: the similarity that puts epoch 2's adjusted centres back on its input ones.
+          std::vector<PointPair3> centres;
+          for (std::size_t i = 0; i < frames2.size(); ++i) centres.push_back({r.epoch2[i].pose().centre(), frames2[i].pose().centre()});
+          e1_adjusted = moved(r.epoch1, *fit_helmert3(centres));
+        }
+        judge(o, scene, e1_adjusted);
+        o.distortion_rms_px = distortion_difference(e1_adjusted.front().camera(), e1.camera).rms_px;
+      } else {
+        o.note = r.report.message;
+      }
+      results[v].push_back(o);
+      std::fprintf(stderr, "  %s: %zu tracks (%zu inter-epoch), reprojection RMS %.2f -> %.2f px, sigma0 %.2f\n", variant,
+                   r.report.tracks_used, r.report.inter_epoch_tracks, r.report.before.all.rms_px, r.report.after.all.rms_px,
+                   r.report.sigma0);
+      if (v == "full")
+        for (const SolveSummary& solve : r.report.solves)
+          std::fprintf(stderr, "    solve %s: %s, %d iterations, cost %.4g -> %.4g, %.1f s\n", solve.stage.c_str(),
+                       solve.termination.c_str(), solve.iterations, solve.initial_cost, solve.final_cost, solve.seconds);
+      if (v == "full")
+        for (const CameraReport& c : r.report.cameras)
+          for (const ParameterChange& pc : c.values)
+            std::fprintf(stderr, "    camera %d %s: %.6g -> %.6g (sigma %.2g)\n", c.camera, pc.name.c_str(), pc.before, pc.after, pc.sigma);
+    }
+    std::fprintf(stderr, "  truth e1: f %.2f pp (%.2f, %.2f) params", e1.camera.focal(), e1.camera.cx(), e1.camera.cy());
+    for (double p : e1.camera.params()) std::fprintf(stderr, " %.6g", p);
+    std::fprintf(stderr, "\n  e2 as the SfM had it: distortion %.2f px off, f %+.2f px\n",
+                 distortion_difference(e2.estimated_camera, e2.camera).max_px, e2.estimated_camera.focal() - e2.camera.focal());
+    if (colmap)
+      results["colmap"].push_back(run_colmap(scene, e1_moved, frames2, matches,
+                                             colmap_work + "/seed" + std::to_string(scene_options.seed)));
+    for (const char* v : kVariants) {
+      if (results[v].size() <= static_cast<std::size_t>(s) || !results[v].back().ran) {
+        if (results[v].size() > static_cast<std::size_t>(s))
+          std::fprintf(stderr, "  %-10s  no result: %s\n", v, results[v].back().note.c_str());
+        continue;
+      }
+      const Outcome& o = results[v].back();
+      std::fprintf(stderr,
+                   "  %-10s  check points %zu: RMS %.2f m = %.2f GSD, |mu| X %.2f Y %.2f Z %.2f m; f %+.2f, pp %.2f, "
+                   "distortion %.2f px (RMS %.2f); %.2f s\n",
+                   v, o.check.num_used, o.check.rms_3d_m, o.check.rms_3d_gsd, o.check.axes_m[0].mean_abs,
+                   o.check.axes_m[1].mean_abs, o.check.axes_m[2].mean_abs, o.focal_error_px, o.pp_error_px,
+                   o.distortion_px, o.distortion_rms_px, o.seconds);
+    }
+  }
+
+  std::printf("%d seeds (first %llu), %d co-registered; inter-epoch matches per seed: median %.0f, within 3 px %.0f\n\n",
+              seeds, static_cast<unsigned long long>(first_seed), coregistered, median(inter_matches), median(inter_correct));
+  std::printf("| variant | seeds | check-point RMS 3D (m) | in GSD | mean abs error X / Y / Z (m) | sigma X / Y / Z (m) | "
+              "focal error (px) | principal point error (px) | distortion, worst over the image (px) | time (s) |\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|---|\n");
+  for (const char* v : kVariants) {
+    const auto it = results.find(v);
+    if (it == results.end()) continue;
+    std::vector<double> rms, gsd, mx, my, mz, sx, sy, sz, f, pp, d, t;
+    for (const Outcome& o : it->second) {
+      if (!o.ran || !o.check.success) continue;
+      rms.push_back(o.check.rms_3d_m);
+      gsd.push_back(o.check.rms_3d_gsd);
+      mx.push_back(o.check.axes_m[0].mean_abs);
+      my.push_back(o.check.axes_m[1].mean_abs);
+      mz.push_back(o.check.axes_m[2].mean_abs);
+      sx.push_back(o.check.axes_m[0].sigma);
+      sy.push_back(o.check.axes_m[1].sigma);
+      sz.push_back(o.check.axes_m[2].sigma);
+      f.push_back(o.focal_error_px);
+      pp.push_back(o.pp_error_px);
+      d.push_back(o.distortion_px);
+      t.push_back(o.seconds);
+    }
+    std::printf("| %s | %zu | %s | %s | %s / %s / %s | %s / %s / %s | %s | %s | %s | %s |\n", v, rms.size(),
+                fmt(median(rms)).c_str(), fmt(median(gsd)).c_str(), fmt(median(mx)).c_str(), fmt(median(my)).c_str(),
+                fmt(median(mz)).c_str(), fmt(median(sx)).c_str(), fmt(median(sy)).c_str(), fmt(median(sz)).c_str(),
+                fmt(median(f)).c_str(), fmt(median(pp)).c_str(), fmt(median(d)).c_str(), fmt(median(t)).c_str());
+  }
+  return 0;
+}
