@@ -12,6 +12,10 @@
 // Check points: their true pixels in the epoch-1 images triangulated with each orientation, against
 // their true position; in world metres and in epoch-1 GSD. Intrinsics: epoch 1's recovered focal
 // length, principal point and distortion (eval/distortion_difference.hpp) against the true camera.
+// The sparse DoD (eval/dod.hpp): epoch 1's tie points triangulated with each orientation against
+// epoch 2's DSM, in metres (it includes the real change of the landscape, as the paper's does).
+// Two oracles bound what the matches and the reference cost: the true epoch-2 orientation held
+// fixed, and the same master points matched by the truth.
 //
 //   adjustment_eval [--seeds N] [--first-seed S] [--threads N] [--no-colmap] [--colmap-work DIR]
 //
@@ -35,6 +39,7 @@
 #include <diachron/adjustment/triangulation.hpp>
 #include <diachron/eval/check_points.hpp>
 #include <diachron/eval/distortion_difference.hpp>
+#include <diachron/eval/dod.hpp>
 #include <diachron/eval/match_truth.hpp>
 #include <diachron/eval/scene_check_points.hpp>
 #include <diachron/geometry/procrustes.hpp>
@@ -68,6 +73,7 @@ struct Outcome {
   double distortion_px = std::nan("");
   double distortion_rms_px = std::nan("");
   double seconds = 0.0;
+  DodReport dod;  ///< epoch 1's tie points against epoch 2's DSM, world metres
 };
 
 const char* const kVariants[] = {"rough",          "intra only",   "no affine",         "full",
@@ -105,6 +111,22 @@ void judge(Outcome& o, const Scene& scene, const Frames& epoch1) {
   o.focal_error_px = std::abs(camera.focal() - truth.focal());
   o.pp_error_px = (camera.principal_point() - truth.principal_point()).norm();
   o.distortion_px = distortion_difference(camera, truth).max_px;
+  // The sparse DoD: epoch 1's tie points triangulated with these frames against epoch 2's DSM (the
+  // SfM's, in its frame), heights brought to metres by the frame's scale.
+  std::vector<Vec3> points;
+  for (const TiePoint& t : scene.epochs[0].tie_points) {
+    std::vector<const Frame<FraserAffine>*> views;
+    std::vector<Vec2> pixels;
+    for (const ImageObservation& ob : t.observations) {
+      views.push_back(&epoch1.at(static_cast<std::size_t>(ob.image)));
+      pixels.push_back(ob.pixel);
+    }
+    if (views.size() < 2) continue;
+    const TriangulationResult tr = triangulate_point(views, pixels);
+    if (tr.success) points.push_back(tr.point);
+  }
+  o.dod = sparse_dod(points, scene.epochs[1].dsm);
+  o.dod.statistics = o.dod.statistics.scaled(scene.epochs[1].world_from_epoch.scale);
 }
 
 Frames moved(const Frames& frames, const Helmert3& h) {
@@ -231,7 +253,9 @@ int main(int argc, char** argv) {
         rough_coregistration(e1.dsm, e2.dsm, ExtractorPairMatcher<SiftExtractor>(SiftExtractor{}), rough_options);
     if (!rough.success) {
       std::fprintf(stderr, "  rough co-registration failed: %s\n", rough.message.c_str());
-      for (const char* v : kVariants) results[v].push_back(Outcome{false, "no rough co-registration", {}, {}, {}, {}, 0.0});
+      Outcome none;
+      none.note = "no rough co-registration";
+      for (const char* v : kVariants) results[v].push_back(none);
       continue;
     }
     ++coregistered;
@@ -351,22 +375,24 @@ int main(int argc, char** argv) {
       const Outcome& o = results[v].back();
       std::fprintf(stderr,
                    "  %-10s  check points %zu: RMS %.2f m = %.2f GSD, |mu| X %.2f Y %.2f Z %.2f m; f %+.2f, pp %.2f, "
-                   "distortion %.2f px (RMS %.2f); %.2f s\n",
+                   "distortion %.2f px (RMS %.2f); DoD mu %.2f sigma %.2f mean |dz| %.2f m; %.2f s\n",
                    v, o.check.num_used, o.check.rms_3d_m, o.check.rms_3d_gsd, o.check.axes_m[0].mean_abs,
                    o.check.axes_m[1].mean_abs, o.check.axes_m[2].mean_abs, o.focal_error_px, o.pp_error_px,
-                   o.distortion_px, o.distortion_rms_px, o.seconds);
+                   o.distortion_px, o.distortion_rms_px, o.dod.statistics.mean, o.dod.statistics.sigma,
+                   o.dod.statistics.mean_abs, o.seconds);
     }
   }
 
   std::printf("%d seeds (first %llu), %d co-registered; inter-epoch matches per seed: median %.0f, within 3 px %.0f\n\n",
               seeds, static_cast<unsigned long long>(first_seed), coregistered, median(inter_matches), median(inter_correct));
   std::printf("| variant | seeds | check-point RMS 3D (m) | in GSD | mean abs error X / Y / Z (m) | sigma X / Y / Z (m) | "
-              "focal error (px) | principal point error (px) | distortion, worst over the image (px) | time (s) |\n");
-  std::printf("|---|---|---|---|---|---|---|---|---|---|\n");
+              "focal error (px) | principal point error (px) | distortion, worst over the image (px) | DoD mu / sigma / "
+              "mean abs (m) | time (s) |\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (const char* v : kVariants) {
     const auto it = results.find(v);
     if (it == results.end()) continue;
-    std::vector<double> rms, gsd, mx, my, mz, sx, sy, sz, f, pp, d, t;
+    std::vector<double> rms, gsd, mx, my, mz, sx, sy, sz, f, pp, d, t, dm, ds, da;
     for (const Outcome& o : it->second) {
       if (!o.ran || !o.check.success) continue;
       rms.push_back(o.check.rms_3d_m);
@@ -381,11 +407,15 @@ int main(int argc, char** argv) {
       pp.push_back(o.pp_error_px);
       d.push_back(o.distortion_px);
       t.push_back(o.seconds);
+      dm.push_back(o.dod.statistics.mean);
+      ds.push_back(o.dod.statistics.sigma);
+      da.push_back(o.dod.statistics.mean_abs);
     }
-    std::printf("| %s | %zu | %s | %s | %s / %s / %s | %s / %s / %s | %s | %s | %s | %s |\n", v, rms.size(),
+    std::printf("| %s | %zu | %s | %s | %s / %s / %s | %s / %s / %s | %s | %s | %s | %s / %s / %s | %s |\n", v, rms.size(),
                 fmt(median(rms)).c_str(), fmt(median(gsd)).c_str(), fmt(median(mx)).c_str(), fmt(median(my)).c_str(),
                 fmt(median(mz)).c_str(), fmt(median(sx)).c_str(), fmt(median(sy)).c_str(), fmt(median(sz)).c_str(),
-                fmt(median(f)).c_str(), fmt(median(pp)).c_str(), fmt(median(d)).c_str(), fmt(median(t)).c_str());
+                fmt(median(f)).c_str(), fmt(median(pp)).c_str(), fmt(median(d)).c_str(), fmt(median(dm)).c_str(),
+                fmt(median(ds)).c_str(), fmt(median(da)).c_str(), fmt(median(t)).c_str());
   }
   return 0;
 }
