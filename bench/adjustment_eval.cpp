@@ -6,6 +6,9 @@
 //                link), then moved by the rough Helmert: the control
 //   no affine    the combined adjustment without B1, B2
 //   full         the combined adjustment as shipped (pipeline/combined_adjustment.hpp)
+//   e2 camera free   the same with epoch 2's camera (not its poses) free too
+//   both free    both epochs free, the datum then put back on epoch 2's input centres by a similarity
+//   inter sigma 3    inter-epoch matches weighted as 3 px observations (intra-epoch 1 px)
 //   colmap       Debian's COLMAP 3.8 bundle_adjuster on the same images and tracks (nearest COLMAP
 //                cameras, no affine term; everything free, so its result is brought back onto epoch
 //                2's fixed orientation by the similarity of its epoch-2 centres onto the input's)
@@ -14,8 +17,8 @@
 // length, principal point and distortion (eval/distortion_difference.hpp) against the true camera.
 // The sparse DoD (eval/dod.hpp): epoch 1's tie points triangulated with each orientation against
 // epoch 2's DSM, in metres (it includes the real change of the landscape, as the paper's does).
-// Two oracles bound what the matches and the reference cost: the true epoch-2 orientation held
-// fixed, and the same master points matched by the truth.
+// Two oracles bound what the matches and the reference cost: "oracle e2 frames" holds the true
+// epoch-2 orientation fixed, "oracle matches" matches the same master points by the truth.
 //
 //   adjustment_eval [--seeds N] [--first-seed S] [--threads N] [--no-colmap] [--colmap-work DIR]
 //
@@ -78,29 +81,21 @@ struct Outcome {
 
 const char* const kVariants[] = {"rough",          "intra only",   "no affine",         "full",
                                  "e2 camera free", "both free",    "oracle e2 frames", "oracle matches",
-                                 "colmap"};
+                                 "inter sigma 3",  "colmap"};
 
 // Check points of epoch 1 triangulated with `frames` (epoch-2 frame), errors in world metres.
 CheckPointReport check_points(const Scene& scene, const Frames& frames) {
-  const SyntheticEpoch& e1 = scene.epochs[0];
   const Helmert3 world_from_e2 = scene.epochs[1].world_from_epoch;
   std::vector<ObservedCheckPoint> points = scene_check_points(scene, 0, 1);
   for (ObservedCheckPoint& p : points) p.truth = world_from_e2(p.truth);
+  const FrameTriangulator<FraserAffine> triangulate(frames);
   return evaluate_check_points(
       points,
       [&](const std::vector<CheckPointObservation>& obs) -> std::optional<Vec3> {
-        std::vector<const Frame<FraserAffine>*> views;
-        std::vector<Vec2> pixels;
-        for (const CheckPointObservation& o : obs) {
-          views.push_back(&frames.at(o.image));
-          pixels.push_back(o.pixel);
-        }
-        if (views.size() < 2) return std::nullopt;
-        const TriangulationResult t = triangulate_point(views, pixels);
-        if (!t.success) return std::nullopt;
-        return world_from_e2(t.point);
+        const std::optional<Vec3> p = triangulate(obs);
+        return p ? std::optional<Vec3>(world_from_e2(*p)) : std::nullopt;
       },
-      e1.gsd_m);
+      scene.epochs[0].gsd_m);
 }
 
 void judge(Outcome& o, const Scene& scene, const Frames& epoch1) {
@@ -114,17 +109,9 @@ void judge(Outcome& o, const Scene& scene, const Frames& epoch1) {
   // The sparse DoD: epoch 1's tie points triangulated with these frames against epoch 2's DSM (the
   // SfM's, in its frame), heights brought to metres by the frame's scale.
   std::vector<Vec3> points;
-  for (const TiePoint& t : scene.epochs[0].tie_points) {
-    std::vector<const Frame<FraserAffine>*> views;
-    std::vector<Vec2> pixels;
-    for (const ImageObservation& ob : t.observations) {
-      views.push_back(&epoch1.at(static_cast<std::size_t>(ob.image)));
-      pixels.push_back(ob.pixel);
-    }
-    if (views.size() < 2) continue;
-    const TriangulationResult tr = triangulate_point(views, pixels);
-    if (tr.success) points.push_back(tr.point);
-  }
+  const FrameTriangulator<FraserAffine> triangulate(epoch1);
+  for (const TiePoint& t : scene.epochs[0].tie_points)
+    if (const std::optional<Vec3> p = triangulate(t.observations)) points.push_back(*p);
   o.dod = sparse_dod(points, scene.epochs[1].dsm);
   o.dod.statistics = o.dod.statistics.scaled(scene.epochs[1].world_from_epoch.scale);
 }
@@ -319,7 +306,8 @@ int main(int argc, char** argv) {
       }
       true_matches.push_back(std::move(t));
     }
-    for (const char* variant : {"no affine", "full", "e2 camera free", "both free", "oracle e2 frames", "oracle matches"}) {
+    for (const char* variant :
+         {"no affine", "full", "e2 camera free", "both free", "oracle e2 frames", "oracle matches", "inter sigma 3"}) {
       const std::string v = variant;
       Outcome o;
       CombinedAdjustmentOptions options;
@@ -327,6 +315,7 @@ int main(int argc, char** argv) {
       if (v == "no affine") options.bundle.epochs = {EpochFreedom{true, true, false}, EpochFreedom::all_fixed()};
       if (v == "e2 camera free") options.bundle.epochs = {EpochFreedom::all_free(), EpochFreedom{false, true, true}};
       if (v == "both free") options.fix_reference_epoch = false;
+      if (v == "inter sigma 3") options.bundle.inter_epoch_sigma_px = 3.0;
       if (v == "oracle e2 frames")
         for (std::size_t i = 0; i < e2.images.size(); ++i) reference.frames[i] = e2.epoch_frame(i);
       t0 = std::chrono::steady_clock::now();

@@ -57,18 +57,14 @@ CheckPointReport check_points(const Scene& scene, const Frames& frames) {
   const Helmert3 world_from_e2 = scene.epochs[1].world_from_epoch;
   std::vector<ObservedCheckPoint> points = scene_check_points(scene, 0, 1);
   for (ObservedCheckPoint& p : points) p.truth = world_from_e2(p.truth);
-  const auto triangulate = [&](const std::vector<CheckPointObservation>& obs) -> std::optional<Vec3> {
-    std::vector<const Frame<FraserAffine>*> views;
-    std::vector<Vec2> pixels;
-    for (const CheckPointObservation& o : obs) {
-      views.push_back(&frames.at(o.image));
-      pixels.push_back(o.pixel);
-    }
-    if (views.size() < 2) return std::nullopt;
-    const TriangulationResult t = triangulate_point(views, pixels);
-    return t.success ? std::optional<Vec3>(world_from_e2(t.point)) : std::nullopt;
-  };
-  return evaluate_check_points(points, triangulate, scene.epochs[0].gsd_m);
+  const FrameTriangulator<FraserAffine> triangulate(frames);
+  return evaluate_check_points(
+      points,
+      [&](const std::vector<CheckPointObservation>& obs) -> std::optional<Vec3> {
+        const std::optional<Vec3> p = triangulate(obs);
+        return p ? std::optional<Vec3>(world_from_e2(*p)) : std::nullopt;
+      },
+      scene.epochs[0].gsd_m);
 }
 
 std::vector<std::vector<ImagePixel>> tie_points(const SyntheticEpoch& e) {

@@ -2,6 +2,7 @@
 // pixel noise, and failures (few views, small angle, behind a camera) reported, not returned.
 
 #include <cmath>
+#include <optional>
 #include <random>
 #include <vector>
 
@@ -93,4 +94,21 @@ TEST_CASE("triangulate_point: failures are reported", "[adjustment]") {
   Track bad;
   bad.observations = {{0, p0, ObservationKind::intra_epoch}, {7, p1, ObservationKind::intra_epoch}};
   CHECK_THROWS_AS(triangulate_track(frames, bad), Error);
+}
+
+TEST_CASE("FrameTriangulator: observation lists by image index, nullopt below two views, bad index throws",
+          "[adjustment]") {
+  const auto frames = strip(3);
+  const Vec3 truth = frames[1].pose().centre() + Vec3(-15.0, 25.0, -505.0);
+  struct Observation {
+    int image;
+    Vec2 pixel;
+  };
+  const FrameTriangulator<FraserAffine> triangulate(frames);
+  const std::vector<Observation> two{{0, *frames[0].project(truth)}, {2, *frames[2].project(truth)}};
+  const std::optional<Vec3> p = triangulate(two);
+  REQUIRE(p);
+  CHECK((*p - truth).norm() < 1e-6);
+  CHECK_FALSE(triangulate(std::vector<Observation>{two[0]}));
+  CHECK_THROWS_AS(triangulate(std::vector<Observation>{two[0], {3, two[1].pixel}}), Error);
 }

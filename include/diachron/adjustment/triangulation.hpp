@@ -218,4 +218,40 @@ TriangulationResult triangulate_track(const std::vector<Frame<Distortion>>& fram
   return triangulate_point(views, pixels, options);
 }
 
+/// A triangulator over a fixed list of oriented images, for check points and tie points given as
+/// observation lists (e.g. evaluate_check_points in eval/check_points.hpp): called with a vector of
+/// observations that have `.image` (an index into `frames`) and `.pixel` (px), it returns the
+/// triangulated point (frames' world frame), or nullopt when there are fewer than
+/// options.min_views observations or triangulation fails. Keeps a reference to `frames`, which
+/// must outlive it. An observation's image outside `frames` throws diachron::Error.
+template <class Distortion>
+class FrameTriangulator {
+ public:
+  explicit FrameTriangulator(const std::vector<Frame<Distortion>>& frames, const TriangulationOptions& options = {})
+      : frames_(frames), options_(options) {
+    options_.check();
+  }
+
+  template <class Observations>
+  std::optional<Vec3> operator()(const Observations& observations) const {
+    std::vector<const Frame<Distortion>*> views;
+    std::vector<Vec2> pixels;
+    for (const auto& o : observations) {
+      const auto image = static_cast<std::size_t>(o.image);
+      DIACHRON_CHECK(image < frames_.size(),
+                     "FrameTriangulator: image " << o.image << " outside [0, " << frames_.size() << ")");
+      views.push_back(&frames_[image]);
+      pixels.push_back(o.pixel);
+    }
+    if (views.size() < static_cast<std::size_t>(options_.min_views)) return std::nullopt;
+    const TriangulationResult r = triangulate_point(views, pixels, options_);
+    if (!r.success) return std::nullopt;
+    return r.point;
+  }
+
+ private:
+  const std::vector<Frame<Distortion>>& frames_;
+  TriangulationOptions options_;
+};
+
 }  // namespace diachron
