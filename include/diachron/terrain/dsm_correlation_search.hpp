@@ -24,6 +24,7 @@
 #include <vector>
 
 #include <Eigen/Core>
+#include <Eigen/LU>
 
 #include <diachron/core/error.hpp>
 #include <diachron/core/raster.hpp>
