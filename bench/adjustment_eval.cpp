@@ -263,16 +263,21 @@ int main(int argc, char** argv) {
     const std::vector<EpochPairMatches> matches = epoch_pair_matches(precise.pairs);
     const MatchTruthScorer truth(scene);
     std::size_t count = 0, correct = 0;
+    Vec2 bias = Vec2::Zero();  // mean error of the correct matches, epoch-2 px: a systematic shift shows here
     for (const EpochPairMatches& pair : matches)
       for (const PointMatch& m : pair.matches) {
         ++count;
         const MatchTruth t = truth.score({0, static_cast<int>(pair.master)}, {1, static_cast<int>(pair.secondary)}, m.a, m.b);
-        if (t.scored() && t.error_px < 3.0) ++correct;
+        if (t.scored() && t.error_px < 3.0) {
+          ++correct;
+          bias += m.b - t.true_pixel;
+        }
       }
     inter_matches.push_back(static_cast<double>(count));
     inter_correct.push_back(static_cast<double>(correct));
-    std::fprintf(stderr, "  %zu pairs, %zu inter-epoch matches (%zu within 3 px) in %.1f s\n", overlap.pairs.size(), count,
-                 correct, matching_seconds);
+    if (correct > 0) bias /= static_cast<double>(correct);
+    std::fprintf(stderr, "  %zu pairs, %zu inter-epoch matches (%zu within 3 px, mean error (%.3f, %.3f) px) in %.1f s\n",
+                 overlap.pairs.size(), count, correct, bias.x(), bias.y(), matching_seconds);
 
     const Frames e1_moved = moved(frames1, helmert);
     const CombinedEpoch c1{frames1, tie_points(e1)}, c2{frames2, tie_points(e2)};
