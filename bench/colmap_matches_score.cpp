@@ -16,7 +16,6 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
-#include <dirent.h>
 #include <fstream>
 #include <iostream>
 #include <iterator>
@@ -27,6 +26,7 @@
 
 #include <diachron/eval/match_truth.hpp>
 #include <diachron/io/colmap_text.hpp>
+#include <diachron/io/folders.hpp>
 #include <diachron/synth/scene_io.hpp>
 
 using namespace diachron;
@@ -76,17 +76,6 @@ const char* status_name(MatchTruthStatus s) {
     case MatchTruthStatus::changed_surface: return "changed_surface";
   }
   return "?";
-}
-
-std::vector<std::string> subfolders(const std::string& path) {
-  std::vector<std::string> out;
-  if (DIR* dir = ::opendir(path.c_str())) {
-    while (const dirent* e = ::readdir(dir))
-      if (e->d_name[0] != '.') out.push_back(e->d_name);
-    ::closedir(dir);
-  }
-  std::sort(out.begin(), out.end());
-  return out;
 }
 
 }  // namespace
@@ -171,7 +160,7 @@ int main(int argc, char** argv) {
     std::ostringstream json;
     json << "{\"scene\": \"" << scene_dir << "\", \"models\": [";
     std::printf("COLMAP on %s: %zu images\n", scene_dir.c_str(), name_of.size());
-    const std::vector<std::string> models = subfolders(work + "/sparse_txt");
+    const std::vector<std::string> models = folder_entries(work + "/sparse_txt");
     if (models.empty()) std::printf("the mapper made no model\n");
     for (std::size_t k = 0; k < models.size(); ++k) {
       const ColmapModel model = read_colmap_text(work + "/sparse_txt/" + models[k]);

@@ -67,15 +67,6 @@ CheckPointReport check_points(const Scene& scene, const Frames& frames) {
       scene.epochs[0].gsd_m);
 }
 
-std::vector<std::vector<ImagePixel>> tie_points(const SyntheticEpoch& e) {
-  std::vector<std::vector<ImagePixel>> out;
-  for (const TiePoint& t : e.tie_points) {
-    out.emplace_back();
-    for (const ImageObservation& o : t.observations) out.back().push_back({o.image, o.pixel});
-  }
-  return out;
-}
-
 void print_check_points(const char* name, const CheckPointReport& r) {
   const char* axis[3] = {"x", "y", "z"};
   for (int a = 0; a < 3; ++a)
@@ -159,7 +150,7 @@ int main(int argc, char** argv) {
 
     // 4. The combined adjustment: epoch 2 fixed, epoch 1's poses, camera and affine parts free.
     t0 = std::chrono::steady_clock::now();
-    const CombinedEpoch c1{frames1, tie_points(e1)}, c2{frames2, tie_points(e2)};
+    const CombinedEpoch c1{frames1, e1.tie_point_observations()}, c2{frames2, e2.tie_point_observations()};
     const CombinedAdjustmentResult adjusted = combined_adjustment(c1, c2, matches, helmert);
     const BundleReport& r = adjusted.report;
     std::printf("4. combined adjustment: %s (%.1f s)\n", r.message.c_str(), seconds_since(t0));
@@ -175,9 +166,8 @@ int main(int argc, char** argv) {
     }
 
     // 5. The paper's table: check points (true pixels in epoch 1 triangulated, against the truth).
-    Frames rough_frames;
-    for (const auto& f : frames1) rough_frames.push_back(f.transformed(helmert));
-    const CheckPointReport before = check_points(scene, rough_frames), after = check_points(scene, adjusted.epoch1);
+    const CheckPointReport before = check_points(scene, transformed_frames(frames1, helmert));
+    const CheckPointReport after = check_points(scene, adjusted.epoch1);
     std::printf("\nCheck points of epoch 1 in the world frame, metres (GSD of epoch 1: %.1f m):\n", e1.gsd_m);
     std::printf("| method         | axis |    mean |  sigma | mean |e| |    RMS |\n");
     std::printf("|----------------|------|---------|--------|----------|--------|\n");

@@ -22,17 +22,19 @@
 // how the defaults were chosen.
 
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
-#include <map>
-#include <optional>
 #include <fstream>
 #include <iostream>
+#include <map>
 #include <memory>
+#include <optional>
 #include <sstream>
 #include <string>
-#include <sys/stat.h>
+#include <vector>
 
 #include <diachron/io/epoch_folder.hpp>
+#include <diachron/io/folders.hpp>
 #include <diachron/io/geotiff.hpp>
 #include <diachron/io/helmert_json.hpp>
 #include <diachron/io/homol.hpp>
@@ -98,11 +100,20 @@ std::string safe(std::string name) {
   return name;
 }
 
-void make_directory(const std::string& path) {
-  ::mkdir(path.c_str(), 0755);
-  struct stat info {};
-  DIACHRON_CHECK(::stat(path.c_str(), &info) == 0 && S_ISDIR(info.st_mode), "cannot create folder " << path);
-}
+
+// The images of an epoch for the pictures, each read once however many pairs show it.
+class PictureImages {
+ public:
+  explicit PictureImages(const EpochFolder& epoch) : epoch_(epoch), images_(epoch.images.size()) {}
+  const Raster<std::uint8_t>& operator[](std::size_t i) {
+    if (!images_.at(i)) images_[i] = epoch_.load_image(i);
+    return *images_[i];
+  }
+
+ private:
+  const EpochFolder& epoch_;
+  std::vector<std::optional<Raster<std::uint8_t>>> images_;
+};
 
 #if DIACHRON_MATCH_EPOCHS_ADJUST
 // An epoch's name in adjusted/: its folder's name ("/data/1954/" -> "1954").
@@ -188,8 +199,9 @@ std::string adjustment_json(const CombinedAdjustmentResult& a, const AdjustedExp
 
 // One picture per epoch-1 image: its tie-point observations and their reprojection residuals
 // after the adjustment (observed - projected), magnified.
-void write_residual_pictures(const std::string& dir, const EpochFolder& e1, const CombinedAdjustmentResult& a) {
-  make_directory(dir);
+void write_residual_pictures(const std::string& dir, const EpochFolder& e1, PictureImages& images,
+                             const CombinedAdjustmentResult& a) {
+  make_folder(dir, "match_epochs");
   const std::size_t n1 = e1.images.size();
   std::vector<std::vector<Vec2>> pixels(n1), residuals(n1);
   for (std::size_t t = 0; t < a.track_list.size(); ++t) {
@@ -206,7 +218,7 @@ void write_residual_pictures(const std::string& dir, const EpochFolder& e1, cons
     std::string name = safe(e1.images[i].name);
     const std::size_t dot = name.find_last_of('.');
     if (dot != std::string::npos && dot > 0) name.erase(dot);  // "a.tif" -> "a.png"
-    write_residuals_png(dir + "/" + name + ".png", e1.load_image(i), pixels[i], residuals[i]);
+    write_residuals_png(dir + "/" + name + ".png", images[i], pixels[i], residuals[i]);
   }
 }
 #endif
@@ -324,7 +336,7 @@ int main(int argc, char** argv) {
 
     const EpochFolder e1 = read_epoch_folder(dir1);
     const EpochFolder e2 = read_epoch_folder(dir2);
-    make_directory(out_dir);
+    make_folder(out_dir, "match_epochs");
     if (!quiet)
       std::fprintf(stderr, "epoch 1: %zu images, DSM %d x %d; epoch 2: %zu images, DSM %d x %d\n", e1.images.size(),
                    e1.dsm.width(), e1.dsm.height(), e2.images.size(), e2.dsm.width(), e2.dsm.height());
@@ -392,8 +404,9 @@ int main(int argc, char** argv) {
     // 4. Outputs.
     write_report(out_dir + "/report.json", e1, e2, rough, overlap, precise, method, matcher_name);
     const std::string homol = out_dir + "/Homol";
-    make_directory(homol);
-    if (pictures) make_directory(out_dir + "/pairs");
+    make_folder(homol, "match_epochs");
+    if (pictures) make_folder(out_dir + "/pairs", "match_epochs");
+    PictureImages pictures1(e1), pictures2(e2);
     for (const PrecisePairReport& p : precise.pairs) {
       const std::string& a = e1.images[p.master].name;
       const std::string& b = e2.images[p.secondary].name;
@@ -402,8 +415,8 @@ int main(int argc, char** argv) {
       if (p.matches.empty()) continue;
       write_homol(homol, a, b, p.matches);
       if (pictures)
-        write_matches_png(out_dir + "/pairs/" + safe(a) + "--" + safe(b) + ".png", e1.load_image(p.master),
-                          e2.load_image(p.secondary), p.matches);
+        write_matches_png(out_dir + "/pairs/" + safe(a) + "--" + safe(b) + ".png", pictures1[p.master],
+                          pictures2[p.secondary], p.matches);
     }
     std::printf("%s (%.1f s)\n", precise.message.c_str(), precise.seconds_total);
     if (!precise.success) {
@@ -438,7 +451,7 @@ int main(int argc, char** argv) {
       AdjustedExportOptions export_options;
       export_options.protected_folders = {dir1, dir2};
       const AdjustedExportReport exported = write_adjusted_export(images, out_dir, export_options);
-      if (pictures) write_residual_pictures(out_dir + "/adjusted/residuals", e1, adjusted);
+      if (pictures) write_residual_pictures(out_dir + "/adjusted/residuals", e1, pictures1, adjusted);
       write_report(out_dir + "/report.json", e1, e2, rough, overlap, precise, method, matcher_name,
                    adjustment_json(adjusted, &exported));
       std::printf("reprojection RMS %.3f -> %.3f px (inter-epoch %.3f -> %.3f px); wrote %s and %s "

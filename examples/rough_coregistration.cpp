@@ -16,8 +16,8 @@
 #include <iostream>
 #include <memory>
 #include <string>
-#include <sys/stat.h>
 
+#include <diachron/io/folders.hpp>
 #include <diachron/io/geotiff.hpp>
 #include <diachron/pipeline/rough_coregistration.hpp>
 #include <diachron/vision/akaze.hpp>
@@ -160,9 +160,7 @@ int main(int argc, char** argv) {
       };
     const Dsm master = read_geotiff_dsm(master_path);
     const Dsm secondary = read_geotiff_dsm(secondary_path);
-    ::mkdir(out_dir.c_str(), 0755);
-    struct stat info {};
-    DIACHRON_CHECK(::stat(out_dir.c_str(), &info) == 0 && S_ISDIR(info.st_mode), "cannot create " << out_dir);
+    make_folders(out_dir, "rough_coregistration");
 
     RoughCoregistrationReport report;
     if (matcher_name == "sift" || matcher_name == "rootsift") {

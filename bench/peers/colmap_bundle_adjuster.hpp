@@ -24,7 +24,6 @@
 
 #include <fcntl.h>
 #include <spawn.h>
-#include <sys/stat.h>
 #include <sys/types.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -37,7 +36,9 @@
 #include <diachron/camera/frame.hpp>
 #include <diachron/core/error.hpp>
 #include <diachron/io/cameras_json.hpp>
+#include <diachron/io/adjusted_export.hpp>
 #include <diachron/io/colmap_text.hpp>
+#include <diachron/io/folders.hpp>
 
 extern char** environ;
 
@@ -98,30 +99,10 @@ struct ColmapBundleAdjusterRun {
 /// for an observation of an unknown image or a track that sees an image twice.
 inline ColmapModel colmap_model_of(const BaProblem& problem, const ConversionOptions& conversion,
                                    double* max_conversion_error_px = nullptr) {
-  ColmapModel model;
-  std::vector<Camera<FraserAffine>> distinct;
+  std::vector<AdjustedCameraConversion> cameras;
+  ColmapModel model = adjusted_colmap_model(problem.images, "", conversion, &cameras);
   double worst = 0.0;
-  for (std::size_t i = 0; i < problem.images.size(); ++i) {
-    const CamerasJsonImage& im = problem.images[i];
-    std::size_t k = 0;
-    while (k < distinct.size() &&
-           !(distinct[k].width() == im.camera.width() && distinct[k].height() == im.camera.height() &&
-             distinct[k].intrinsics() == im.camera.intrinsics()))
-      ++k;
-    if (k == distinct.size()) {
-      distinct.push_back(im.camera);
-      const ConversionResult<ColmapCamera> c =
-          colmap_camera_from_camera(im.camera, static_cast<std::uint32_t>(k + 1), conversion);
-      worst = std::max(worst, c.max_error_px);
-      model.cameras.emplace(c.model.id, c.model);
-    }
-    ColmapImage image;
-    image.id = static_cast<std::uint32_t>(i + 1);
-    image.name = im.name;
-    image.camera_id = static_cast<std::uint32_t>(k + 1);
-    image.pose = im.pose();
-    model.images.emplace(image.id, std::move(image));
-  }
+  for (const AdjustedCameraConversion& c : cameras) worst = std::max(worst, c.max_error_px);
   for (std::size_t t = 0; t < problem.tracks.size(); ++t) {
     const BaTrack& track = problem.tracks[t];
     ColmapPoint3D p;
@@ -166,12 +147,6 @@ inline int run_logged(const std::vector<std::string>& args, const std::string& l
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
 
-inline void make_folder(const std::string& path) {
-  ::mkdir(path.c_str(), 0755);
-  struct stat info {};
-  DIACHRON_CHECK(::stat(path.c_str(), &info) == 0 && S_ISDIR(info.st_mode), "cannot create the folder '" << path << "'");
-}
-
 inline std::string joined(const std::vector<std::string>& args) {
   std::string out;
   for (const std::string& a : args) out += (out.empty() ? "" : " ") + a;
@@ -187,11 +162,11 @@ inline std::string joined(const std::vector<std::string>& args) {
 inline ColmapBundleAdjusterRun run_colmap_bundle_adjuster(const BaProblem& problem, const std::string& work_dir,
                                                           const ColmapBundleAdjusterOptions& options = {}) {
   ColmapBundleAdjusterRun run;
-  detail::make_folder(work_dir);
+  make_folder(work_dir, "run_colmap_bundle_adjuster");
   const std::string input = work_dir + "/input", output = work_dir + "/output", text = work_dir + "/output_txt";
   write_colmap_text(colmap_model_of(problem, options.conversion, &run.max_conversion_error_px), input);
-  detail::make_folder(output);  // bundle_adjuster refuses an output path that is not a folder
-  detail::make_folder(text);
+  make_folder(output, "run_colmap_bundle_adjuster");  // bundle_adjuster refuses an output path that is not a folder
+  make_folder(text, "run_colmap_bundle_adjuster");
   run.log_path = work_dir + "/colmap.log";
   ::unlink(run.log_path.c_str());
   const auto flag = [](bool b) { return std::string(b ? "1" : "0"); };

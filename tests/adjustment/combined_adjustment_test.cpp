@@ -37,15 +37,7 @@ const Scene& scene() {
   return s;
 }
 
-CombinedEpoch combined_epoch(const SyntheticEpoch& e) {
-  CombinedEpoch out;
-  out.frames = e.estimated_frames();
-  for (const TiePoint& t : e.tie_points) {
-    out.tie_points.emplace_back();
-    for (const ImageObservation& o : t.observations) out.tie_points.back().push_back({o.image, o.pixel});
-  }
-  return out;
-}
+CombinedEpoch combined_epoch(const SyntheticEpoch& e) { return {e.estimated_frames(), e.tie_point_observations()}; }
 
 // Inter-epoch matches from the truth: each epoch-1 tie observation paired with the true pixel
 // (plus 0.3 px noise) of its point in every epoch-2 image that sees it.
@@ -118,8 +110,7 @@ TEST_CASE("combined_adjustment: Nominal, check points 3x closer than the rough H
   REQUIRE(r.epoch1.size() == e1.frames.size());
   REQUIRE(r.epoch2.size() == e2.frames.size());
 
-  std::vector<Frame<FraserAffine>> moved;
-  for (const auto& f : e1.frames) moved.push_back(f.transformed(rough));
+  const std::vector<Frame<FraserAffine>> moved = transformed_frames(e1.frames, rough);
   int used = 0;
   const double before = check_point_rms(s, moved), after = check_point_rms(s, r.epoch1, &used);
   const double gsd_e2 = s.epochs[0].gsd_m * s.epochs[1].epoch_from_world().scale;  // epoch-1 GSD in epoch-2 units

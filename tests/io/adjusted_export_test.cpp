@@ -16,6 +16,7 @@
 #include <diachron/io/colmap_text.hpp>
 
 #include "support/colmap_projection.hpp"
+#include "support/temp_folder.hpp"
 
 using namespace diachron;
 using Catch::Matchers::Contains;
@@ -24,13 +25,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string temp_folder(const std::string& name) {
-  const char* base = std::getenv("TMPDIR");
-  const fs::path dir = fs::path(base ? base : "/tmp") / ("diachron_adjusted_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir.string();
-}
+std::string temp_folder(const std::string& name) { return diachron::test::fresh_temp_folder("adjusted_" + name); }
 
 // Epoch e1: two images sharing a camera with shear (B2 != 0: FULL_OPENCV, fitted) and one with its
 // own camera; epoch e2: two images of a camera OPENCV holds exactly (K3 = B2 = 0).

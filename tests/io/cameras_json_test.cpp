@@ -14,6 +14,8 @@
 #include <diachron/io/cameras_json.hpp>
 #include <diachron/io/json.hpp>
 
+#include "support/temp_folder.hpp"
+
 using namespace diachron;
 using Catch::Matchers::Contains;
 
@@ -21,13 +23,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string temp_folder(const std::string& name) {
-  const char* base = std::getenv("TMPDIR");
-  const fs::path dir = fs::path(base ? base : "/tmp") / ("diachron_cameras_json_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir.string();
-}
+std::string temp_folder(const std::string& name) { return diachron::test::fresh_temp_folder("cameras_json_" + name); }
 
 // Images with random (ugly) doubles everywhere, so that any loss of digits shows.
 std::vector<CamerasJsonImage> random_images() {

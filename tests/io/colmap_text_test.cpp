@@ -22,17 +22,13 @@
 
 #include "support/colmap_binary.hpp"
 #include "support/colmap_projection.hpp"
+#include "support/temp_folder.hpp"
 
 using namespace diachron;
 
 namespace {
 
-std::string temp_folder(const std::string& name) {
-  const char* base = std::getenv("TMPDIR");
-  const std::string dir = std::string(base ? base : "/tmp") + "/diachron_colmap_" + name + "_" + std::to_string(::getpid());
-  ::mkdir(dir.c_str(), 0755);
-  return dir;
-}
+std::string temp_folder(const std::string& name) { return diachron::test::fresh_temp_folder("colmap_" + name); }
 
 bool test_file_exists(const std::string& path) {
   struct stat info {};

@@ -13,6 +13,8 @@
 #include <diachron/core/random.hpp>
 #include <diachron/io/homol.hpp>
 
+#include "support/temp_folder.hpp"
+
 using Catch::Matchers::Contains;
 using diachron::PointMatch;
 using diachron::PointMatches;
@@ -21,14 +23,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// A fresh folder per test, removed first so that a previous run leaves nothing behind.
-std::string temp_folder(const std::string& name) {
-  const char* base = std::getenv("TMPDIR");
-  const fs::path dir = fs::path(base ? base : "/tmp") / ("diachron_homol_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir.string();
-}
+std::string temp_folder(const std::string& name) { return diachron::test::fresh_temp_folder("homol_" + name); }
 
 std::string slurp(const std::string& path) {
   std::ifstream in(path);

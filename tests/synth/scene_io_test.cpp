@@ -12,7 +12,6 @@
 #include <string>
 #include <vector>
 
-#include <dirent.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -20,6 +19,7 @@
 
 #ifdef DIACHRON_HAVE_GDAL
 #include <diachron/io/epoch_folder.hpp>
+#include <diachron/io/folders.hpp>
 #include <diachron/io/helmert_json.hpp>
 #include <diachron/synth/scene_io.hpp>
 
@@ -63,17 +63,6 @@ void check_camera_via_colmap(const Camera<FraserAffine>& a, const Camera<FraserA
     CHECK(std::abs(a.intrinsics()[k] - b.intrinsics()[k]) <= 1e-13 * (1.0 + std::abs(a.intrinsics()[k])));
   CHECK(a.width() == b.width());
   CHECK(a.height() == b.height());
-}
-
-std::vector<std::string> folder_entries(const std::string& path) {
-  std::vector<std::string> out;
-  if (DIR* dir = ::opendir(path.c_str())) {
-    while (const dirent* entry = ::readdir(dir))
-      if (entry->d_name[0] != '.') out.push_back(entry->d_name);
-    ::closedir(dir);
-  }
-  std::sort(out.begin(), out.end());
-  return out;
 }
 
 std::string read_text(const std::string& path) {

@@ -24,12 +24,6 @@ namespace diachron {
 /// inter-epoch match. An observation named by both counts as inter-epoch (it carries the link).
 enum class ObservationKind { intra_epoch, inter_epoch };
 
-/// One pixel of one image. `image` indexes the caller's global image list.
-struct ImagePixel {
-  int image = 0;                                    ///< image index, >= 0
-  Eigen::Vector2d pixel = Eigen::Vector2d::Zero();  ///< px, diachron pixel convention
-};
-
 /// An inter-epoch match: the same ground point in two images (usually of different epochs).
 struct ImageMatch {
   ImagePixel a;  ///< e.g. the master image of epoch 1

@@ -4,6 +4,7 @@
 /// points to pixels and casts pixel rays into the world; what the DSM transfer is written against.
 
 #include <optional>
+#include <vector>
 
 #include <Eigen/Core>
 
@@ -70,5 +71,15 @@ class Frame {
   CameraType camera_;
   Pose pose_;
 };
+
+/// Every frame of `frames` moved by `helmert` (Frame::transformed), in order: e.g. epoch 1 put into
+/// epoch 2's frame by the co-registration.
+template <class Distortion>
+std::vector<Frame<Distortion>> transformed_frames(const std::vector<Frame<Distortion>>& frames, const Helmert3& helmert) {
+  std::vector<Frame<Distortion>> out;
+  out.reserve(frames.size());
+  for (const Frame<Distortion>& f : frames) out.push_back(f.transformed(helmert));
+  return out;
+}
 
 }  // namespace diachron

@@ -33,6 +33,13 @@ struct PointPair3 {
   Eigen::Vector3d target;
 };
 
+/// One pixel of one image: an observation of a point. `image` indexes the caller's list of images
+/// (an epoch's, or one list over several epochs).
+struct ImagePixel {
+  int image = 0;                                    ///< image index, >= 0
+  Eigen::Vector2d pixel = Eigen::Vector2d::Zero();  ///< px, diachron pixel convention
+};
+
 /// Degrees to radians and back; the API speaks radians, option names ending in `_deg` degrees.
 inline constexpr double deg_to_rad(double deg) { return deg * kPi / 180.0; }
 inline constexpr double rad_to_deg(double rad) { return rad * 180.0 / kPi; }

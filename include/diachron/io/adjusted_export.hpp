@@ -9,7 +9,6 @@
 /// is emitted, as the headers-alone check does).
 
 #include <algorithm>
-#include <cerrno>
 #include <cstddef>
 #include <cstdint>
 #include <map>
@@ -26,6 +25,7 @@
 #include <diachron/core/error.hpp>
 #include <diachron/io/cameras_json.hpp>
 #include <diachron/io/colmap_text.hpp>
+#include <diachron/io/folders.hpp>
 
 namespace diachron {
 
@@ -58,11 +58,12 @@ struct AdjustedExportReport {
   double max_conversion_error_px = 0.0;                 ///< the largest max_error_px, px (0 for no camera)
 };
 
-/// The COLMAP model of the images of one epoch: one camera per distinct diachron camera (same
-/// size and intrinsics, compared exactly), ids from 1 in order of first use; image ids from 1 in
-/// input order; poses as given; no 2D or 3D points. `conversions` receives one entry per camera.
-/// Precondition: every image of `images` whose epoch is `epoch` has a distinct name without white
-/// space and a rotation matrix (else throws diachron::Error).
+/// The COLMAP model of the images of one epoch (every image when `epoch` is empty, e.g. for one
+/// model over both epochs): one camera per distinct diachron camera (same size and intrinsics,
+/// compared exactly), ids from 1 in order of first use; image ids from 1 in input order; poses as
+/// given; no 2D or 3D points. `conversions` receives one entry per camera.
+/// Precondition: every image taken has a distinct name without white space and a rotation matrix
+/// (else throws diachron::Error).
 inline ColmapModel adjusted_colmap_model(const std::vector<CamerasJsonImage>& images, const std::string& epoch,
                                          const ConversionOptions& conversion,
                                          std::vector<AdjustedCameraConversion>* conversions = nullptr);
@@ -80,22 +81,6 @@ inline AdjustedExportReport write_adjusted_export(const std::vector<CamerasJsonI
 // Implementation ----------------------------------------------------------------------------------
 
 namespace detail {
-
-inline bool adjusted_is_directory(const std::string& path) {
-  struct stat info {};
-  return ::stat(path.c_str(), &info) == 0 && S_ISDIR(info.st_mode);
-}
-
-// mkdir -p.
-inline void adjusted_make_directories(const std::string& path) {
-  for (std::size_t slash = path.find('/', 1);; slash = path.find('/', slash + 1)) {
-    const std::string prefix = slash == std::string::npos ? path : path.substr(0, slash);
-    if (!prefix.empty() && !adjusted_is_directory(prefix) && ::mkdir(prefix.c_str(), 0755) != 0 && errno != EEXIST)
-      throw Error("diachron: write_adjusted_export: cannot create the folder '" + prefix + "'");
-    if (slash == std::string::npos) break;
-  }
-  DIACHRON_CHECK(adjusted_is_directory(path), "write_adjusted_export: '" << path << "' is not a folder");
-}
 
 // True when the two paths name the same existing file-system object (device and inode), which
 // sees through symbolic links, "..", and different spellings of one folder.
@@ -119,7 +104,7 @@ inline ColmapModel adjusted_colmap_model(const std::vector<CamerasJsonImage>& im
   std::vector<AdjustedCameraConversion> out;
   std::uint32_t next_image = 1;
   for (const CamerasJsonImage& im : images) {
-    if (im.epoch != epoch) continue;
+    if (!epoch.empty() && im.epoch != epoch) continue;
     // images.txt separates its fields by white space, so a name cannot hold any.
     DIACHRON_CHECK(!im.name.empty() && im.name.find_first_of(" \t\r\n") == std::string::npos,
                    "adjusted_colmap_model: image name '" << im.name << "' is empty or has white space");
@@ -183,12 +168,12 @@ inline AdjustedExportReport write_adjusted_export(const std::vector<CamerasJsonI
   }
   static_cast<void>(cameras_json(images));  // throws for an empty name or epoch, a non-finite pose
 
-  detail::adjusted_make_directories(root);
+  make_folders(root, "write_adjusted_export");
   report.cameras_json_path = root + "/cameras.json";
   write_cameras_json(images, report.cameras_json_path);
   for (const std::string& e : epochs) {
     const std::string folder = root + "/" + e;
-    detail::adjusted_make_directories(folder);
+    make_folders(folder, "write_adjusted_export");
     write_colmap_text(models.at(e), folder);
     report.model_folders.emplace(e, folder);
   }

@@ -18,7 +18,6 @@
 
 #include <algorithm>
 #include <array>
-#include <cerrno>
 #include <charconv>
 #include <cmath>
 #include <cstddef>
@@ -36,8 +35,6 @@
 #include <utility>
 #include <vector>
 
-#include <sys/stat.h>
-#include <sys/types.h>
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
@@ -49,6 +46,7 @@
 #include <diachron/camera/pose.hpp>
 #include <diachron/core/error.hpp>
 #include <diachron/core/types.hpp>
+#include <diachron/io/folders.hpp>
 
 namespace diachron {
 
@@ -402,13 +400,6 @@ inline void check_colmap_model(const ColmapModel& model, const ColmapCheckContex
   }
 }
 
-inline void make_colmap_directory(const std::string& path) {
-  if (::mkdir(path.c_str(), 0755) != 0 && errno != EEXIST)
-    throw Error("diachron: cannot create the folder '" + path + "'");
-  struct stat info {};
-  DIACHRON_CHECK(::stat(path.c_str(), &info) == 0 && S_ISDIR(info.st_mode), "'" << path << "' is not a folder");
-}
-
 inline std::ofstream open_colmap_output(const std::string& path) {
   std::ofstream out(path);
   DIACHRON_CHECK(out.good(), "cannot write '" << path << "': the file cannot be created");
@@ -474,7 +465,7 @@ inline ColmapModel read_colmap_text(const std::string& directory) {
 inline void write_colmap_text(const ColmapModel& model, const std::string& directory) {
   DIACHRON_CHECK(!directory.empty(), "write_colmap_text: empty folder name");
   model.check();
-  detail::make_colmap_directory(directory);
+  make_folder(directory, "write_colmap_text");
   {
     const std::string path = directory + "/cameras.txt";
     std::ofstream out = detail::open_colmap_output(path);

@@ -21,14 +21,12 @@
 #include <system_error>
 #include <vector>
 
-#include <dirent.h>
-#include <sys/stat.h>
-#include <sys/types.h>
 
 #include <Eigen/Core>
 
 #include <diachron/core/error.hpp>
 #include <diachron/core/types.hpp>
+#include <diachron/io/folders.hpp>
 #include <diachron/matching/point_match.hpp>
 
 namespace diachron {
@@ -84,43 +82,6 @@ inline void check_homol_image_name(const std::string& name) {
                  "Homol image name '" << name << "' must be non-empty and contain no '/'");
 }
 
-// POSIX rather than std::filesystem: the library's other file code is POSIX too, and GCC's
-// <filesystem> inline functions refer to libstdc++ internals a program cannot link against when
-// every inline function is emitted (the headers/alone test).
-inline bool is_homol_directory(const std::string& path) {
-  struct stat info {};
-  return ::stat(path.c_str(), &info) == 0 && S_ISDIR(info.st_mode);
-}
-
-inline bool is_homol_regular_file(const std::string& path) {
-  struct stat info {};
-  return ::stat(path.c_str(), &info) == 0 && S_ISREG(info.st_mode);
-}
-
-// mkdir -p: every missing folder of `path`.
-inline void make_homol_directories(const std::string& path) {
-  for (std::size_t slash = path.find('/', 1);; slash = path.find('/', slash + 1)) {
-    const std::string prefix = slash == std::string::npos ? path : path.substr(0, slash);
-    if (!prefix.empty() && !is_homol_directory(prefix)) ::mkdir(prefix.c_str(), 0755);
-    if (slash == std::string::npos) break;
-  }
-  DIACHRON_CHECK(is_homol_directory(path), "write_homol: cannot create the folder '" << path << "'");
-}
-
-// The entries of a folder except . and .., sorted; empty when it cannot be read.
-inline std::vector<std::string> homol_folder_entries(const std::string& path) {
-  std::vector<std::string> out;
-  if (DIR* dir = ::opendir(path.c_str())) {
-    while (const dirent* entry = ::readdir(dir)) {
-      const std::string name = entry->d_name;
-      if (name != "." && name != "..") out.push_back(name);
-    }
-    ::closedir(dir);
-  }
-  std::sort(out.begin(), out.end());
-  return out;
-}
-
 inline void append_homol_number(std::string& line, double v) {
   char buffer[32];
   const auto [end, error] = std::to_chars(buffer, buffer + sizeof buffer, v);
@@ -168,7 +129,7 @@ inline void write_homol(const std::string& homol_dir, const std::string& image1,
                    "write_homol: match " << i << " has a non-finite coordinate");
   const std::string forward = homol_file_path(homol_dir, image1, image2);
   const std::string backward = homol_file_path(homol_dir, image2, image1);
-  for (const std::string& file : {forward, backward}) detail::make_homol_directories(file.substr(0, file.rfind('/')));
+  for (const std::string& file : {forward, backward}) make_folders(file.substr(0, file.rfind('/')), "write_homol");
   detail::write_homol_file(forward, matches, false, pixel_shift_px);
   detail::write_homol_file(backward, matches, true, pixel_shift_px);
 }
@@ -215,21 +176,21 @@ inline PointMatches read_homol(const std::string& homol_dir, const std::string& 
 }
 
 inline std::vector<HomolPair> list_homol_pairs(const std::string& homol_dir) {
-  DIACHRON_CHECK(detail::is_homol_directory(homol_dir), "list_homol_pairs: '" << homol_dir << "' is not a folder");
+  DIACHRON_CHECK(is_folder(homol_dir), "list_homol_pairs: '" << homol_dir << "' is not a folder");
   const std::string root = homol_dir.back() == '/' ? homol_dir : homol_dir + "/";
   std::vector<HomolPair> out;
-  for (const std::string& dir_name : detail::homol_folder_entries(homol_dir)) {
+  for (const std::string& dir_name : folder_entries(homol_dir)) {
     if (dir_name.size() <= detail::kHomolPastisPrefix.size() ||
         dir_name.compare(0, detail::kHomolPastisPrefix.size(), detail::kHomolPastisPrefix) != 0 ||
-        !detail::is_homol_directory(root + dir_name))
+        !is_folder(root + dir_name))
       continue;
     const std::string image1 = dir_name.substr(detail::kHomolPastisPrefix.size());
-    for (const std::string& name : detail::homol_folder_entries(root + dir_name)) {
+    for (const std::string& name : folder_entries(root + dir_name)) {
       const std::string path = root + dir_name + "/" + name;
       if (name.size() <= detail::kHomolExtension.size() ||
           name.compare(name.size() - detail::kHomolExtension.size(), detail::kHomolExtension.size(),
                        detail::kHomolExtension) != 0 ||
-          !detail::is_homol_regular_file(path))
+          !is_regular_file(path))
         continue;
       out.push_back(HomolPair{image1, name.substr(0, name.size() - detail::kHomolExtension.size()), path});
     }

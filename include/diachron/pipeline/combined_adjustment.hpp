@@ -99,7 +99,7 @@ inline CombinedAdjustmentResult combined_adjustment(const CombinedEpoch& epoch1,
 
   // One image list: epoch 1 (moved into the epoch-2 frame) first, then epoch 2.
   BundleInput input;
-  for (const auto& f : epoch1.frames) input.frames.push_back(f.transformed(epoch2_from_epoch1));
+  input.frames = transformed_frames(epoch1.frames, epoch2_from_epoch1);
   for (const auto& f : epoch2.frames) input.frames.push_back(f);
   input.image_epoch.assign(static_cast<std::size_t>(n1), 0);
   input.image_epoch.resize(static_cast<std::size_t>(n1 + n2), 1);

@@ -444,6 +444,27 @@ inline PreciseMatchingOptions per_pair_options(const PreciseMatchingOptions& opt
   return inner;
 }
 
+// The composition of the methods whose pairs are independent (patch, correlation): the checks,
+// the inner options, `match_pair(master, secondary, inner options)` on every pair, the total time.
+template <class MasterFrame, class SecondaryFrame, class MatchPair>
+PreciseMatchingReport precise_matching_each_pair(const PreciseEpoch<MasterFrame>& epoch1,
+                                                 const PreciseEpoch<SecondaryFrame>& epoch2,
+                                                 const std::vector<ImagePairOverlap>& pairs,
+                                                 const PreciseMatchingOptions& options, MatchPair&& match_pair) {
+  options.check();
+  epoch1.check("1");
+  epoch2.check("2");
+  const auto start = std::chrono::steady_clock::now();
+  const PreciseMatchingOptions inner = per_pair_options(options, pairs.size());
+  PreciseMatchingReport out = run_precise_pairs(
+      epoch1, epoch2, pairs, options,
+      [&](std::size_t, const PreciseImage<MasterFrame>& a, const PreciseImage<SecondaryFrame>& b) {
+        return match_pair(a, b, inner);
+      });
+  out.seconds_total = precise_seconds_since(start);
+  return out;
+}
+
 }  // namespace detail
 
 /// Precise matching of every pair by patch matching with `matcher` (any PairMatcher; thread-safe,
@@ -455,18 +476,11 @@ PreciseMatchingReport precise_matching_patch(const PreciseEpoch<MasterFrame>& ep
                                              const std::vector<ImagePairOverlap>& pairs, const Matcher& matcher,
                                              const PreciseMatchingOptions& options = {}) {
   static_assert(check_pair_matcher<Matcher>());
-  options.check();
-  epoch1.check("1");
-  epoch2.check("2");
-  const auto start = std::chrono::steady_clock::now();
-  const PreciseMatchingOptions inner = detail::per_pair_options(options, pairs.size());
-  PreciseMatchingReport out = detail::run_precise_pairs(
+  return detail::precise_matching_each_pair(
       epoch1, epoch2, pairs, options,
-      [&](std::size_t, const PreciseImage<MasterFrame>& a, const PreciseImage<SecondaryFrame>& b) {
+      [&](const PreciseImage<MasterFrame>& a, const PreciseImage<SecondaryFrame>& b, const PreciseMatchingOptions& inner) {
         return precise_match_pair_patch(a, *epoch1.dsm, b, *epoch2.dsm, epoch2_from_epoch1, matcher, inner);
       });
-  out.seconds_total = detail::precise_seconds_since(start);
-  return out;
 }
 
 /// Precise matching of every pair by guided matching of the features `extractor` finds in the
@@ -527,18 +541,11 @@ PreciseMatchingReport precise_matching_correlation(const PreciseEpoch<MasterFram
                                                    const Helmert3& epoch2_from_epoch1,
                                                    const std::vector<ImagePairOverlap>& pairs,
                                                    const PreciseMatchingOptions& options = {}) {
-  options.check();
-  epoch1.check("1");
-  epoch2.check("2");
-  const auto start = std::chrono::steady_clock::now();
-  const PreciseMatchingOptions inner = detail::per_pair_options(options, pairs.size());
-  PreciseMatchingReport out = detail::run_precise_pairs(
+  return detail::precise_matching_each_pair(
       epoch1, epoch2, pairs, options,
-      [&](std::size_t, const PreciseImage<MasterFrame>& a, const PreciseImage<SecondaryFrame>& b) {
+      [&](const PreciseImage<MasterFrame>& a, const PreciseImage<SecondaryFrame>& b, const PreciseMatchingOptions& inner) {
         return precise_match_pair_correlation(a, *epoch1.dsm, b, *epoch2.dsm, epoch2_from_epoch1, inner);
       });
-  out.seconds_total = detail::precise_seconds_since(start);
-  return out;
 }
 
 }  // namespace diachron

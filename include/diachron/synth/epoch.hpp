@@ -212,11 +212,9 @@ struct EpochOptions {
   }
 };
 
-/// One observation of a 3D point in an image of an epoch.
-struct ImageObservation {
-  int image = 0;                               ///< index in SyntheticEpoch::images
-  Eigen::Vector2d pixel = Eigen::Vector2d::Zero();  ///< pixel (diachron convention), px
-};
+/// One observation of a 3D point in an image of an epoch: `image` is the index in
+/// SyntheticEpoch::images (the shape the adjustment's tie points take, core/types.hpp).
+using ImageObservation = ImagePixel;
 
 /// An intra-epoch tie point as an SfM gives it: a true 3D point and its noisy image observations.
 struct TiePoint {
@@ -265,6 +263,14 @@ struct SyntheticEpoch {
   Frame<FraserAffine> epoch_frame(std::size_t i) const { return {camera, images.at(i).pose_epoch}; }
   /// Image i as the SfM estimated it (estimated camera, estimated pose, epoch frame).
   Frame<FraserAffine> estimated_frame(std::size_t i) const { return {estimated_camera, images.at(i).estimated_pose}; }
+  /// The tie points' observations, one list per tie point (what an SfM hands over as tracks; the
+  /// tie points of CombinedEpoch in pipeline/combined_adjustment.hpp).
+  std::vector<std::vector<ImagePixel>> tie_point_observations() const {
+    std::vector<std::vector<ImagePixel>> out;
+    out.reserve(tie_points.size());
+    for (const TiePoint& t : tie_points) out.push_back(t.observations);
+    return out;
+  }
   /// Every image as the SfM estimated it, in image order (what a user of the epoch has).
   std::vector<Frame<FraserAffine>> estimated_frames() const {
     std::vector<Frame<FraserAffine>> out;

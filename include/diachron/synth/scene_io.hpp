@@ -17,7 +17,6 @@
 /// @endcode
 /// Nothing an SfM of the epoch would not know is in OUT/<epoch>/; OUT/truth/ is for scoring.
 
-#include <cerrno>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -43,6 +42,7 @@
 #include <diachron/core/raster.hpp>
 #include <diachron/geometry/helmert3.hpp>
 #include <diachron/io/colmap_text.hpp>
+#include <diachron/io/folders.hpp>
 #include <diachron/io/geotiff.hpp>
 #include <diachron/synth/scene.hpp>
 #include <diachron/terrain/dsm.hpp>
@@ -57,12 +57,6 @@ inline constexpr const char* kSceneTruthFolder = "truth";
 
 namespace detail {
 
-inline void make_scene_directory(const std::string& path) {
-  if (::mkdir(path.c_str(), 0755) != 0 && errno != EEXIST)
-    throw Error("diachron: cannot create the folder '" + path + "'");
-  struct stat info {};
-  DIACHRON_CHECK(::stat(path.c_str(), &info) == 0 && S_ISDIR(info.st_mode), "'" << path << "' is not a folder");
-}
 
 inline void write_scene_matrix(std::ostream& out, const Mat3& m) {
   for (int r = 0; r < 3; ++r)
@@ -258,9 +252,9 @@ inline void write_scene(const Scene& scene, const std::string& directory) {
   for (const SyntheticEpoch& epoch : scene.epochs)
     DIACHRON_CHECK(epoch.name != kSceneTruthFolder && !epoch.name.empty() && epoch.name.find('/') == std::string::npos,
                    "write_scene: an epoch cannot be named '" << epoch.name << "' (it names its folder)");
-  detail::make_scene_directory(directory);
+  make_folder(directory, "write_scene");
   const std::string truth = directory + "/" + kSceneTruthFolder;
-  detail::make_scene_directory(truth);
+  make_folder(truth, "write_scene");
   const std::string text_path = detail::scene_file_name(directory);
   std::ofstream out(text_path);
   DIACHRON_CHECK(out.good(), "cannot write '" << text_path << "': the file cannot be created");
@@ -277,8 +271,8 @@ inline void write_scene(const Scene& scene, const std::string& directory) {
   out << "epochs " << scene.epochs.size() << '\n';
   for (const SyntheticEpoch& epoch : scene.epochs) {
     const std::string epoch_dir = directory + "/" + epoch.name;
-    detail::make_scene_directory(epoch_dir);
-    detail::make_scene_directory(epoch_dir + "/images");
+    make_folder(epoch_dir, "write_scene");
+    make_folder(epoch_dir + "/images", "write_scene");
     out << "epoch " << epoch.name << '\n';
     out << "gsd " << epoch.gsd_m << '\n';
     out << "world_from_epoch " << epoch.world_from_epoch.scale;
