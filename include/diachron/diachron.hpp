@@ -56,6 +56,7 @@
 #include <diachron/terrain/fft2.hpp>
 #include <diachron/terrain/gsd.hpp>
 #include <diachron/terrain/local_affine.hpp>
+#include <diachron/terrain/local_relief.hpp>
 #include <diachron/terrain/masked_ncc.hpp>
 #include <diachron/terrain/ray_dsm_intersection.hpp>
 #include <diachron/terrain/relief_image.hpp>

@@ -1,6 +1,6 @@
 // Tests of eval/distortion_difference.hpp: zero for equal distortions whatever the focal length and
 // principal point, the radial displacement at the corner from an independent solve of the radial
-// equation, symmetry, bad input.
+// equation, symmetry, at given pixels, bad input.
 #include <cmath>
 
 #include <catch2/catch.hpp>
@@ -46,6 +46,16 @@ TEST_CASE("distortion_difference: radial K1 against none, the corner displacemen
   CHECK(d.rms_px < d.max_px);
   // Symmetric.
   CHECK(distortion_difference(radial, none).max_px == Approx(d.max_px).epsilon(1e-9));
+
+  // At given pixels: near the principal point K1 does almost nothing, at the corner what the grid found.
+  const DistortionDifference centre = distortion_difference_at(none, radial, {Vec2(499.5, 399.5), Vec2(520.0, 380.0)});
+  CHECK(centre.valid);
+  CHECK(centre.samples == 2);
+  CHECK(centre.max_px == Approx(0.01 * std::pow(std::hypot(20.5, 19.5) / 1000.0, 3) * 1000.0).epsilon(1e-3));  // k1 r^3 f
+  const DistortionDifference corner = distortion_difference_at(none, radial, {Vec2(499.5, 399.5), Vec2(0.0, 0.0)});
+  CHECK(corner.max_px == Approx(d.max_px).epsilon(1e-12));
+  CHECK(corner.rms_px == Approx(d.max_px / std::sqrt(2.0)).epsilon(1e-6));
+  CHECK_FALSE(distortion_difference_at(none, radial, {}).valid);
 }
 
 TEST_CASE("distortion_difference: the affine part counts as distortion", "[eval]") {
@@ -61,4 +71,6 @@ TEST_CASE("distortion_difference: bad input", "[eval]") {
   DistortionDifferenceOptions o;
   o.samples = 1;
   CHECK_THROWS_AS(distortion_difference(a, a, o), Error);
+  CHECK_THROWS_AS(distortion_difference_at(a, other_size, {Vec2(1.0, 1.0)}), Error);
+  CHECK_THROWS_AS(distortion_difference_at(a, a, {Vec2(std::nan(""), 1.0)}), Error);
 }

@@ -175,6 +175,49 @@ TEST_CASE("correlation precise matching: correct matches on every pair, whatever
   CHECK_THROWS_AS(precise_matching_correlation(epoch_view(f, 0), epoch_view(f, 1), f.scene.epoch2_from_epoch1(),
                                                f.pairs, bad),
                   Error);
+
+  {
+    // Only on plane ground.
+    PreciseMatchingOptions plane = options;
+    plane.correlation.max_relief_gsd = 0.5;
+    const PreciseMatchingReport flat = precise_matching_correlation(epoch_view(f, 0), epoch_view(f, 1),
+                                                                    f.scene.epoch2_from_epoch1(), f.pairs, plane);
+    INFO(flat.message);
+    REQUIRE(flat.success);
+    const Judged jf = judge(f, flat);
+    CHECK(jf.matches >= 10);
+    CHECK(jf.matches < j.matches);
+    CHECK(jf.within3 >= 0.95 * static_cast<double>(jf.decidable));
+    // Every final master point has plane ground in both DSMs, re-checked here from the definition.
+    const SyntheticEpoch& e1 = f.scene.epochs[0];
+    const SyntheticEpoch& e2 = f.scene.epochs[1];
+    const Helmert3 helmert = f.scene.epoch2_from_epoch1();
+    for (const PrecisePairReport& p : flat.pairs) {
+      INFO(p.message);
+      CHECK(p.message.find("skipped on relief") != std::string::npos);
+      const auto& m1 = f.frames1[p.master];
+      const auto& m2 = f.frames2[p.secondary];
+      const auto transfer = make_dsm_transfer(m1, e1.dsm, m2, helmert);
+      const Raster<std::uint8_t>& image1 = e1.images[p.master].pixels;
+      const Raster<std::uint8_t>& image2 = e2.images[p.secondary].pixels;
+      const double gsd1 = *gsd_on_dsm(m1, e1.dsm, 0.5 * Eigen::Vector2d(image1.width() - 1, image1.height() - 1));
+      const double gsd2 = *gsd_on_dsm(m2, e2.dsm, 0.5 * Eigen::Vector2d(image2.width() - 1, image2.height() - 1));
+      for (const PointMatch& m : p.matches) {
+        const LocalRelief r1 = local_relief(e1.dsm, transfer.master_point(m.a)->head<2>(), 21.0 * gsd1);
+        const LocalRelief r2 = local_relief(e2.dsm, transfer.secondary_point(m.a)->head<2>(), 21.0 * gsd1 * helmert.scale);
+        CHECK(r1.rms * helmert.scale <= 0.5 * gsd2);
+        CHECK(r2.rms <= 0.5 * gsd2);
+      }
+    }
+    PreciseMatchingOptions wrong = options;
+    wrong.correlation.max_relief_gsd = -1.0;
+    CHECK_THROWS_WITH(precise_matching_correlation(epoch_view(f, 0), epoch_view(f, 1), helmert, f.pairs, wrong),
+                      Catch::Contains("max_relief_gsd must be finite and >= 0"));
+    wrong = options;
+    wrong.correlation.relief_radius_px = 0.0;
+    CHECK_THROWS_WITH(precise_matching_correlation(epoch_view(f, 0), epoch_view(f, 1), helmert, f.pairs, wrong),
+                      Catch::Contains("relief_radius_px must be finite and > 0"));
+  }
 }
 
 TEST_CASE("precise matching: no pair is an answer, bad input an error", "[pipeline][precise]") {

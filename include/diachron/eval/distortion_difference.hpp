@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <cmath>
 #include <optional>
+#include <vector>
 
 #include <diachron/camera/camera.hpp>
 #include <diachron/core/error.hpp>
@@ -35,40 +36,53 @@ struct DistortionDifference {
   int failed = 0;         ///< pixels one of them could not unproject (beyond a fold)
 };
 
+/// Compares the distortions of `a` and `b` at the given pixels of their images, e.g. where an
+/// adjustment had observations: what the data determined, without the extrapolation to image corners
+/// no observation reached. Precondition: both cameras of the same image size, else throws
+/// diachron::Error. No pixels: nothing measured (valid == false).
+template <class DistortionA, class DistortionB>
+DistortionDifference distortion_difference_at(const Camera<DistortionA>& a, const Camera<DistortionB>& b,
+                                              const std::vector<Vec2>& pixels) {
+  DIACHRON_CHECK(a.width() == b.width() && a.height() == b.height(),
+                 "distortion_difference: image sizes differ, " << a.width() << " x " << a.height() << " and "
+                                                               << b.width() << " x " << b.height());
+  DistortionDifference out;
+  double sum = 0.0, worst = 0.0;
+  for (const Vec2& pixel : pixels) {
+    DIACHRON_CHECK(pixel.allFinite(), "distortion_difference_at: a pixel is not finite");
+    const std::optional<Vec2> xa = a.normalized_from_pixel(pixel), xb = b.normalized_from_pixel(pixel);
+    if (!xa || !xb) {
+      ++out.failed;
+      continue;
+    }
+    const Vec2 da = pixel - a.principal_point() - a.focal() * *xa;
+    const Vec2 db = pixel - b.principal_point() - b.focal() * *xb;
+    const double e = (da - db).norm();
+    worst = std::max(worst, e);
+    sum += e * e;
+    ++out.samples;
+  }
+  if (out.samples == 0) return out;
+  out.valid = true;
+  out.max_px = worst;
+  out.rms_px = std::sqrt(sum / out.samples);
+  return out;
+}
+
 /// Compares the distortions of `a` and `b` on a grid over `a`'s image (corners included).
 /// Precondition: both cameras of the same image size, else throws diachron::Error.
 template <class DistortionA, class DistortionB>
 DistortionDifference distortion_difference(const Camera<DistortionA>& a, const Camera<DistortionB>& b,
                                            const DistortionDifferenceOptions& options = {}) {
   DIACHRON_CHECK(options.samples >= 2, "DistortionDifferenceOptions::samples must be >= 2, got " << options.samples);
-  DIACHRON_CHECK(a.width() == b.width() && a.height() == b.height(),
-                 "distortion_difference: image sizes differ, " << a.width() << " x " << a.height() << " and "
-                                                               << b.width() << " x " << b.height());
-  DistortionDifference out;
-  double sum = 0.0, worst = 0.0;
+  std::vector<Vec2> grid;
   const int n = options.samples;
+  grid.reserve(static_cast<std::size_t>(n) * static_cast<std::size_t>(n));
   for (int j = 0; j < n; ++j)
-    for (int i = 0; i < n; ++i) {
+    for (int i = 0; i < n; ++i)
       // Pixel centres of the corner pixels and an even grid between them.
-      const Vec2 pixel((a.width() - 1) * static_cast<double>(i) / (n - 1),
-                       (a.height() - 1) * static_cast<double>(j) / (n - 1));
-      const std::optional<Vec2> xa = a.normalized_from_pixel(pixel), xb = b.normalized_from_pixel(pixel);
-      if (!xa || !xb) {
-        ++out.failed;
-        continue;
-      }
-      const Vec2 da = pixel - a.principal_point() - a.focal() * *xa;
-      const Vec2 db = pixel - b.principal_point() - b.focal() * *xb;
-      const double e = (da - db).norm();
-      worst = std::max(worst, e);
-      sum += e * e;
-      ++out.samples;
-    }
-  if (out.samples == 0) return out;
-  out.valid = true;
-  out.max_px = worst;
-  out.rms_px = std::sqrt(sum / out.samples);
-  return out;
+      grid.emplace_back((a.width() - 1) * static_cast<double>(i) / (n - 1), (a.height() - 1) * static_cast<double>(j) / (n - 1));
+  return distortion_difference_at(a, b, grid);
 }
 
 }  // namespace diachron

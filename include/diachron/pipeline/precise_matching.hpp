@@ -31,6 +31,7 @@
 #include <diachron/core/raster.hpp>
 #include <diachron/geometry/helmert3.hpp>
 #include <diachron/matching/correlation_matcher.hpp>
+#include <diachron/terrain/local_relief.hpp>
 #include <diachron/matching/features.hpp>
 #include <diachron/matching/grid_interest_points.hpp>
 #include <diachron/matching/guided_matcher.hpp>
@@ -88,11 +89,24 @@ struct PreciseCorrelationOptions {
   /// is the validation, and an intensity NCC >= 0.6 rejects the matches on land cover whose contrast
   /// inverted between the epochs, which the orientation measure keeps (3/4 of them on seed 0).
   bool use_ncc = false;
+  /// Correlate only master points whose ground is locally a plane: the RMS of the plane residuals of
+  /// each epoch's DSM (terrain/local_relief.hpp) over a disc of relief_radius_px master px around the
+  /// point, in the secondary frame's units, at most max_relief_gsd GSD of the secondary image. Trees,
+  /// buildings and banks in a window give several parallaxes and shadows that move with the sun
+  /// (docs/correlation-matching.md). 0: off.
+  double max_relief_gsd = 0.0;
+  /// Radius of that disc, master px (> 0): the correlation window's size reaches the shadows cast
+  /// into a window by what stands just outside it.
+  double relief_radius_px = 21.0;
 
   /// Throws diachron::Error naming the first invalid field.
   void check() const {
     interest.check();
     match.check();
+    DIACHRON_CHECK(std::isfinite(max_relief_gsd) && max_relief_gsd >= 0.0,
+                   "PreciseCorrelationOptions::max_relief_gsd must be finite and >= 0, got " << max_relief_gsd);
+    DIACHRON_CHECK(std::isfinite(relief_radius_px) && relief_radius_px > 0.0,
+                   "PreciseCorrelationOptions::relief_radius_px must be finite and > 0, got " << relief_radius_px);
     DIACHRON_CHECK(second_pass_radius_px >= 0 && second_pass_radius_px <= 128,
                    "PreciseCorrelationOptions::second_pass_radius_px must be in [0, 128], got "
                        << second_pass_radius_px);
@@ -196,6 +210,30 @@ double secondary_gsd(const Frame& frame, const Dsm& dsm, int width, int height) 
   if (std::isfinite(z))
     if (const std::optional<double> g = gsd_at_height(frame, z, centre); g && *g > 0.0) return *g;
   return std::numeric_limits<double>::quiet_NaN();
+}
+
+/// The points whose ground both DSMs show as locally a plane (PreciseCorrelationOptions::max_relief_gsd).
+template <class Transfer, class MasterFrame, class SecondaryFrame>
+std::vector<Eigen::Vector2d> points_on_plane_ground(const std::vector<Eigen::Vector2d>& points, const Transfer& transfer,
+                                                    const PreciseImage<MasterFrame>& master, const Dsm& master_dsm,
+                                                    const PreciseImage<SecondaryFrame>& secondary,
+                                                    const Dsm& secondary_dsm, const Helmert3& epoch2_from_epoch1,
+                                                    const PreciseCorrelationOptions& options) {
+  const double master_gsd = secondary_gsd(*master.frame, master_dsm, master.pixels->width(), master.pixels->height());
+  const double gsd2 = secondary_gsd(*secondary.frame, secondary_dsm, secondary.pixels->width(), secondary.pixels->height());
+  if (!std::isfinite(master_gsd) || !std::isfinite(gsd2)) return points;  // no scale to judge by: keep all
+  const double radius1 = options.relief_radius_px * master_gsd;          // master frame units
+  const double radius2 = radius1 * epoch2_from_epoch1.scale;             // secondary frame units
+  const double bound = options.max_relief_gsd * gsd2;                   // secondary frame units
+  std::vector<Eigen::Vector2d> kept;
+  for (const Eigen::Vector2d& p : points) {
+    const std::optional<Eigen::Vector3d> x1 = transfer.master_point(p), x2 = transfer.secondary_point(p);
+    if (!x1 || !x2) continue;
+    const LocalRelief r1 = local_relief(master_dsm, x1->head<2>(), radius1);
+    const LocalRelief r2 = local_relief(secondary_dsm, x2->head<2>(), radius2);
+    if (r1.valid && r2.valid && r1.rms * epoch2_from_epoch1.scale <= bound && r2.rms <= bound) kept.push_back(p);
+  }
+  return kept;
 }
 
 }  // namespace detail
@@ -333,6 +371,13 @@ PrecisePairReport precise_match_pair_correlation(const PreciseImage<MasterFrame>
   std::vector<Eigen::Vector2d> points;
   for (const InterestPoint& p : grid_interest_points(*master.pixels, interest)) points.push_back(p.position);
   const auto transfer = make_dsm_transfer(*master.frame, master_dsm, *secondary.frame, epoch2_from_epoch1);
+  std::string relief_note;
+  if (co.max_relief_gsd > 0.0) {
+    const std::size_t before = points.size();
+    points = detail::points_on_plane_ground(points, transfer, master, master_dsm, secondary, secondary_dsm,
+                                            epoch2_from_epoch1, co);
+    relief_note = ", " + std::to_string(before - points.size()) + " of them skipped on relief";
+  }
   CorrelationMatchResult first = correlation_match(*master.pixels, *secondary.pixels, points, transfer, co.match);
   const auto describe = [](const CorrelationMatchResult& r) {
     return std::to_string(r.matches.size()) + " matched, " + std::to_string(r.low_score) + " low score, " +
@@ -366,7 +411,7 @@ PrecisePairReport precise_match_pair_correlation(const PreciseImage<MasterFrame>
   }
   report.seconds.tentative = detail::precise_seconds_since(start);
   filter_precise_pair(report, master, master_dsm, secondary, secondary_dsm, epoch2_from_epoch1, filters);
-  report.message += "; " + std::to_string(points.size()) + " interest points, " + second_pass;
+  report.message += "; " + std::to_string(points.size()) + " interest points" + relief_note + ", " + second_pass;
   report.seconds.total = detail::precise_seconds_since(start);
   return report;
 }
