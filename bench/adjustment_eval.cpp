@@ -21,6 +21,11 @@
 // epoch-2 orientation fixed, "oracle matches" matches the same master points by the truth.
 //
 //   adjustment_eval [--seeds N] [--first-seed S] [--threads N] [--no-colmap] [--colmap-work DIR]
+//                   [--max-relief G] [--cell PX]
+//
+// --max-relief G: precise matching skips master points whose ground is not locally a plane to G
+// secondary GSD (PreciseCorrelationOptions::max_relief_gsd; default off, as match_epochs).
+// --cell PX: correlation master points per PX px cell (default 6, as match_epochs).
 //
 // Prints one line per seed and variant on stderr and a Markdown table (medians over the seeds) on
 // stdout. Not a test: docs/adjustment.md holds its output.
@@ -35,8 +40,6 @@
 #include <string>
 #include <vector>
 
-#include <sys/stat.h>
-
 #include <diachron/adjustment/bundle_adjustment.hpp>
 #include <diachron/adjustment/tracks.hpp>
 #include <diachron/adjustment/triangulation.hpp>
@@ -47,6 +50,7 @@
 #include <diachron/eval/scene_check_points.hpp>
 #include <diachron/geometry/procrustes.hpp>
 #include <diachron/io/cameras_json.hpp>
+#include <diachron/io/folders.hpp>
 #include <diachron/pipeline/combined_adjustment.hpp>
 #include <diachron/pipeline/overlapping_pairs.hpp>
 #include <diachron/pipeline/precise_matching.hpp>
@@ -75,6 +79,10 @@ struct Outcome {
   double pp_error_px = std::nan("");
   double distortion_px = std::nan("");
   double distortion_rms_px = std::nan("");
+  // The same over the pixels of epoch 1 that carry observations (tie points and inter-epoch matches):
+  // what the data determine, without the corners no observation reaches.
+  double observed_distortion_px = std::nan("");
+  double observed_distortion_rms_px = std::nan("");
   double seconds = 0.0;
   DodReport dod;  ///< epoch 1's tie points against epoch 2's DSM, world metres
 };
@@ -98,14 +106,19 @@ CheckPointReport check_points(const Scene& scene, const Frames& frames) {
       scene.epochs[0].gsd_m);
 }
 
-void judge(Outcome& o, const Scene& scene, const Frames& epoch1) {
+void judge(Outcome& o, const Scene& scene, const Frames& epoch1, const std::vector<Vec2>& observed) {
   const Camera<FraserAffine>& truth = scene.epochs[0].camera;
   const Camera<FraserAffine>& camera = epoch1.front().camera();
   o.ran = true;
   o.check = check_points(scene, epoch1);
   o.focal_error_px = std::abs(camera.focal() - truth.focal());
   o.pp_error_px = (camera.principal_point() - truth.principal_point()).norm();
-  o.distortion_px = distortion_difference(camera, truth).max_px;
+  const DistortionDifference distortion = distortion_difference(camera, truth);
+  o.distortion_px = distortion.max_px;
+  o.distortion_rms_px = distortion.rms_px;
+  const DistortionDifference on_data = distortion_difference_at(camera, truth, observed);
+  o.observed_distortion_px = on_data.max_px;
+  o.observed_distortion_rms_px = on_data.rms_px;
   // The sparse DoD: epoch 1's tie points triangulated with these frames against epoch 2's DSM (the
   // SfM's, in its frame), heights brought to metres by the frame's scale.
   std::vector<Vec3> points;
@@ -116,39 +129,15 @@ void judge(Outcome& o, const Scene& scene, const Frames& epoch1) {
   o.dod.statistics = o.dod.statistics.scaled(scene.epochs[1].world_from_epoch.scale);
 }
 
-Frames moved(const Frames& frames, const Helmert3& h) {
-  Frames out;
-  for (const auto& f : frames) out.push_back(f.transformed(h));
-  return out;
-}
-
-std::vector<std::vector<ImagePixel>> tie_points(const SyntheticEpoch& e) {
-  std::vector<std::vector<ImagePixel>> out;
-  for (const TiePoint& t : e.tie_points) {
-    out.emplace_back();
-    for (const ImageObservation& o : t.observations) out.back().push_back({o.image, o.pixel});
-  }
-  return out;
-}
-
 // COLMAP's bundle_adjuster on the combined problem (epoch 1 moved by the rough Helmert, then epoch
-// 2), then the similarity that puts its epoch-2 centres back on the input's.
-Outcome run_colmap(const Scene& scene, const Frames& e1_moved, const Frames& frames2,
-                   const std::vector<EpochPairMatches>& matches, const std::string& work) {
+// 2) with the tracks the combined adjustment built (`tracks`, over that image list), then the
+// similarity that puts its epoch-2 centres back on the input's.
+Outcome run_colmap(const Scene& scene, const Frames& e1_moved, const Frames& frames2, const std::vector<Track>& tracks,
+                   const std::vector<Vec2>& observed, const std::string& work) {
   Outcome o;
   Frames all = e1_moved;
   all.insert(all.end(), frames2.begin(), frames2.end());
   const int n1 = static_cast<int>(e1_moved.size());
-  std::vector<std::vector<ImagePixel>> ties = tie_points(scene.epochs[0]);
-  for (const auto& t : tie_points(scene.epochs[1])) {
-    ties.emplace_back();
-    for (const ImagePixel& p : t) ties.back().push_back({p.image + n1, p.pixel});
-  }
-  std::vector<ImageMatch> links;
-  for (const EpochPairMatches& pair : matches)
-    for (const PointMatch& m : pair.matches)
-      links.push_back({{static_cast<int>(pair.master), m.a}, {n1 + static_cast<int>(pair.secondary), m.b}});
-  const TrackSet tracks = build_tracks(ties, links, static_cast<int>(all.size()));
 
   bench::BaProblem problem;
   for (std::size_t i = 0; i < all.size(); ++i) {
@@ -156,7 +145,7 @@ Outcome run_colmap(const Scene& scene, const Frames& e1_moved, const Frames& fra
     const SyntheticImage& image = scene.epochs[first ? 0 : 1].images[first ? i : i - n1];
     problem.images.push_back(CamerasJsonImage::from_frame(image.name, first ? "e1" : "e2", all[i]));
   }
-  for (const Track& t : tracks.tracks) {
+  for (const Track& t : tracks) {
     const TriangulationResult p = triangulate_track(all, t);
     if (!p.success) continue;
     bench::BaTrack bt;
@@ -182,7 +171,7 @@ Outcome run_colmap(const Scene& scene, const Frames& e1_moved, const Frames& fra
   }
   Frames e1;
   for (int i = 0; i < n1; ++i) e1.push_back(run.images[static_cast<std::size_t>(i)].frame().transformed(*back));
-  judge(o, scene, e1);
+  judge(o, scene, e1, observed);
   o.seconds = run.seconds;
   return o;
 }
@@ -202,6 +191,8 @@ int main(int argc, char** argv) {
   std::size_t threads = 0;
   bool colmap = true;
   std::string colmap_work = "adjustment_eval_colmap";
+  double max_relief = 0.0;
+  int cell = 0;  // 0: the library's default
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     const auto value = [&]() -> std::string {
@@ -213,13 +204,16 @@ int main(int argc, char** argv) {
     else if (a == "--threads") threads = std::stoul(value());
     else if (a == "--no-colmap") colmap = false;
     else if (a == "--colmap-work") colmap_work = value();
+    else if (a == "--max-relief") max_relief = std::stod(value());
+    else if (a == "--cell") cell = std::stoi(value());
     else {
       std::fprintf(stderr,
-                   "usage: adjustment_eval [--seeds N] [--first-seed S] [--threads N] [--no-colmap] [--colmap-work DIR]\n");
+                   "usage: adjustment_eval [--seeds N] [--first-seed S] [--threads N] [--no-colmap] [--colmap-work DIR] "
+                   "[--max-relief G]\n");
       return 1;
     }
   }
-  if (colmap) ::mkdir(colmap_work.c_str(), 0755);  // run_colmap_bundle_adjuster makes one level below it
+  if (colmap) make_folder(colmap_work, "adjustment_eval");  // run_colmap_bundle_adjuster makes one level below it
   std::map<std::string, std::vector<Outcome>> results;
   std::vector<double> inter_matches, inter_correct;
   int coregistered = 0;
@@ -256,6 +250,8 @@ int main(int argc, char** argv) {
     const PreciseEpoch<Frame<FraserAffine>> p1{frames1, [&e1](std::size_t i) { return e1.images[i].pixels; }, &e1.dsm};
     const PreciseEpoch<Frame<FraserAffine>> p2{frames2, [&e2](std::size_t i) { return e2.images[i].pixels; }, &e2.dsm};
     PreciseMatchingOptions precise_options;
+    precise_options.correlation.max_relief_gsd = max_relief;
+    if (cell > 0) precise_options.correlation.interest.cell_px = cell;
     precise_options.threads = threads;
     t0 = std::chrono::steady_clock::now();
     const PreciseMatchingReport precise = precise_matching_correlation(p1, p2, helmert, overlap.pairs, precise_options);
@@ -279,11 +275,18 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "  %zu pairs, %zu inter-epoch matches (%zu within 3 px, mean error (%.3f, %.3f) px) in %.1f s\n",
                  overlap.pairs.size(), count, correct, bias.x(), bias.y(), matching_seconds);
 
-    const Frames e1_moved = moved(frames1, helmert);
-    const CombinedEpoch c1{frames1, tie_points(e1)}, c2{frames2, tie_points(e2)};
+    const Frames e1_moved = transformed_frames(frames1, helmert);
+    const CombinedEpoch c1{frames1, e1.tie_point_observations()}, c2{frames2, e2.tie_point_observations()};
+    // Epoch 1's observed pixels (all its images share one camera): its tie points and the master
+    // side of the inter-epoch matches.
+    std::vector<Vec2> observed;
+    for (const std::vector<ImagePixel>& t : c1.tie_points)
+      for (const ImagePixel& obs : t) observed.push_back(obs.pixel);
+    for (const EpochPairMatches& pair : matches)
+      for (const PointMatch& m : pair.matches) observed.push_back(m.a);
     {
       Outcome o;
-      judge(o, scene, e1_moved);
+      judge(o, scene, e1_moved, observed);
       results["rough"].push_back(o);
     }
     {
@@ -296,7 +299,7 @@ int main(int argc, char** argv) {
       input.tracks = std::move(tracks.tracks);
       const BundleResult r = bundle_adjust(input, BundleOptions{});
       o.seconds = seconds_since(t0);
-      if (r.report.success) judge(o, scene, moved(r.frames, helmert));
+      if (r.report.success) judge(o, scene, transformed_frames(r.frames, helmert), observed);
       else o.note = r.report.message;
       results["intra only"].push_back(o);
     }
@@ -311,6 +314,7 @@ int main(int argc, char** argv) {
       }
       true_matches.push_back(std::move(t));
     }
+    std::vector<Track> full_tracks;  // the tracks of the shipped adjustment, for COLMAP's run
     for (const char* variant :
          {"no affine", "full", "e2 camera free", "both free", "oracle e2 frames", "oracle matches", "inter sigma 3"}) {
       const std::string v = variant;
@@ -333,10 +337,9 @@ int main(int argc, char** argv) {
           // The datum: the similarity that puts epoch 2's adjusted centres back on its input ones.
           std::vector<PointPair3> centres;
           for (std::size_t i = 0; i < frames2.size(); ++i) centres.push_back({r.epoch2[i].pose().centre(), frames2[i].pose().centre()});
-          e1_adjusted = moved(r.epoch1, *fit_helmert3(centres));
+          e1_adjusted = transformed_frames(r.epoch1, *fit_helmert3(centres));
         }
-        judge(o, scene, e1_adjusted);
-        o.distortion_rms_px = distortion_difference(e1_adjusted.front().camera(), e1.camera).rms_px;
+        judge(o, scene, e1_adjusted, observed);
       } else {
         o.note = r.report.message;
       }
@@ -344,21 +347,21 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "  %s: %zu tracks (%zu inter-epoch), reprojection RMS %.2f -> %.2f px, sigma0 %.2f\n", variant,
                    r.report.tracks_used, r.report.inter_epoch_tracks, r.report.before.all.rms_px, r.report.after.all.rms_px,
                    r.report.sigma0);
-      if (v == "full")
-        for (const SolveSummary& solve : r.report.solves)
-          std::fprintf(stderr, "    solve %s: %s, %d iterations, cost %.4g -> %.4g, %.1f s\n", solve.stage.c_str(),
-                       solve.termination.c_str(), solve.iterations, solve.initial_cost, solve.final_cost, solve.seconds);
-      if (v == "full")
-        for (const CameraReport& c : r.report.cameras)
-          for (const ParameterChange& pc : c.values)
-            std::fprintf(stderr, "    camera %d %s: %.6g -> %.6g (sigma %.2g)\n", c.camera, pc.name.c_str(), pc.before, pc.after, pc.sigma);
+      if (v != "full") continue;
+      full_tracks = r.track_list;
+      for (const SolveSummary& solve : r.report.solves)
+        std::fprintf(stderr, "    solve %s: %s, %d iterations, cost %.4g -> %.4g, %.1f s\n", solve.stage.c_str(),
+                     solve.termination.c_str(), solve.iterations, solve.initial_cost, solve.final_cost, solve.seconds);
+      for (const CameraReport& c : r.report.cameras)
+        for (const ParameterChange& pc : c.values)
+          std::fprintf(stderr, "    camera %d %s: %.6g -> %.6g (sigma %.2g)\n", c.camera, pc.name.c_str(), pc.before, pc.after, pc.sigma);
     }
     std::fprintf(stderr, "  truth e1: f %.2f pp (%.2f, %.2f) params", e1.camera.focal(), e1.camera.cx(), e1.camera.cy());
     for (double p : e1.camera.params()) std::fprintf(stderr, " %.6g", p);
     std::fprintf(stderr, "\n  e2 as the SfM had it: distortion %.2f px off, f %+.2f px\n",
                  distortion_difference(e2.estimated_camera, e2.camera).max_px, e2.estimated_camera.focal() - e2.camera.focal());
     if (colmap)
-      results["colmap"].push_back(run_colmap(scene, e1_moved, frames2, matches,
+      results["colmap"].push_back(run_colmap(scene, e1_moved, frames2, full_tracks, observed,
                                              colmap_work + "/seed" + std::to_string(scene_options.seed)));
     for (const char* v : kVariants) {
       if (results[v].size() <= static_cast<std::size_t>(s) || !results[v].back().ran) {
@@ -369,10 +372,11 @@ int main(int argc, char** argv) {
       const Outcome& o = results[v].back();
       std::fprintf(stderr,
                    "  %-10s  check points %zu: RMS %.2f m = %.2f GSD, |mu| X %.2f Y %.2f Z %.2f m; f %+.2f, pp %.2f, "
-                   "distortion %.2f px (RMS %.2f); DoD mu %.2f sigma %.2f mean |dz| %.2f m; %.2f s\n",
+                   "distortion %.2f px (RMS %.2f), over the observed pixels %.2f (RMS %.2f); DoD mu %.2f sigma %.2f mean |dz| %.2f m; %.2f s\n",
                    v, o.check.num_used, o.check.rms_3d_m, o.check.rms_3d_gsd, o.check.axes_m[0].mean_abs,
                    o.check.axes_m[1].mean_abs, o.check.axes_m[2].mean_abs, o.focal_error_px, o.pp_error_px,
-                   o.distortion_px, o.distortion_rms_px, o.dod.statistics.mean, o.dod.statistics.sigma,
+                   o.distortion_px, o.distortion_rms_px, o.observed_distortion_px, o.observed_distortion_rms_px,
+                   o.dod.statistics.mean, o.dod.statistics.sigma,
                    o.dod.statistics.mean_abs, o.seconds);
     }
   }
@@ -380,13 +384,13 @@ int main(int argc, char** argv) {
   std::printf("%d seeds (first %llu), %d co-registered; inter-epoch matches per seed: median %.0f, within 3 px %.0f\n\n",
               seeds, static_cast<unsigned long long>(first_seed), coregistered, median(inter_matches), median(inter_correct));
   std::printf("| variant | seeds | check-point RMS 3D (m) | in GSD | mean abs error X / Y / Z (m) | sigma X / Y / Z (m) | "
-              "focal error (px) | principal point error (px) | distortion, worst over the image (px) | DoD mu / sigma / "
-              "mean abs (m) | time (s) |\n");
-  std::printf("|---|---|---|---|---|---|---|---|---|---|---|\n");
+              "focal error (px) | principal point error (px) | distortion, worst over the image (px) | distortion over the "
+              "observed pixels, worst / RMS (px) | DoD mu / sigma / mean abs (m) | time (s) |\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (const char* v : kVariants) {
     const auto it = results.find(v);
     if (it == results.end()) continue;
-    std::vector<double> rms, gsd, mx, my, mz, sx, sy, sz, f, pp, d, t, dm, ds, da;
+    std::vector<double> rms, gsd, mx, my, mz, sx, sy, sz, f, pp, d, od, orms, t, dm, ds, da;
     for (const Outcome& o : it->second) {
       if (!o.ran || !o.check.success) continue;
       rms.push_back(o.check.rms_3d_m);
@@ -400,15 +404,18 @@ int main(int argc, char** argv) {
       f.push_back(o.focal_error_px);
       pp.push_back(o.pp_error_px);
       d.push_back(o.distortion_px);
+      od.push_back(o.observed_distortion_px);
+      orms.push_back(o.observed_distortion_rms_px);
       t.push_back(o.seconds);
       dm.push_back(o.dod.statistics.mean);
       ds.push_back(o.dod.statistics.sigma);
       da.push_back(o.dod.statistics.mean_abs);
     }
-    std::printf("| %s | %zu | %s | %s | %s / %s / %s | %s / %s / %s | %s | %s | %s | %s / %s / %s | %s |\n", v, rms.size(),
+    std::printf("| %s | %zu | %s | %s | %s / %s / %s | %s / %s / %s | %s | %s | %s | %s / %s | %s / %s / %s | %s |\n", v, rms.size(),
                 fmt(median(rms)).c_str(), fmt(median(gsd)).c_str(), fmt(median(mx)).c_str(), fmt(median(my)).c_str(),
                 fmt(median(mz)).c_str(), fmt(median(sx)).c_str(), fmt(median(sy)).c_str(), fmt(median(sz)).c_str(),
-                fmt(median(f)).c_str(), fmt(median(pp)).c_str(), fmt(median(d)).c_str(), fmt(median(dm)).c_str(),
+                fmt(median(f)).c_str(), fmt(median(pp)).c_str(), fmt(median(d)).c_str(), fmt(median(od)).c_str(),
+                fmt(median(orms)).c_str(), fmt(median(dm)).c_str(),
                 fmt(median(ds)).c_str(), fmt(median(da)).c_str(), fmt(median(t)).c_str());
   }
   return 0;

@@ -6,7 +6,12 @@
 //                         [--min-overlap F] [--radius PX] [--measure intensity|gradient|orientation]
 //                         [--corr-radius PX] [--corr-window PX] [--min-score S] [--min-margin M]
 //                         [--second-pass PX] [--cell PX] [--ground-gsd G] [--no-ncc] [--no-refine]
-//                         [--ncc-correlation]
+//                         [--ncc-correlation] [--calm] [--max-relief G] [--relief-radius PX]
+//
+// --calm (a diagnostic): the same scenes without their decades, i.e. no landscape change between
+// the epochs and epoch 1 rendered with epoch 2's look (sun, land-cover response, no film defects);
+// cameras, resolutions and orientations as usual. What error remains is the matcher's and the
+// geometry's, not the landscape's.
 //
 // Methods (comma-separated; default all but xfeat when the model is absent):
 //   baseline        whole-image SIFT (8000 strongest keypoints), ratio 0.8 + mutual, F-RANSAC 3 px
@@ -73,7 +78,8 @@ struct Arguments {
   int corr_radius = -1, corr_window = -1, second_pass = -1, cell = -1;
   double min_score = std::nan(""), min_margin = std::nan("");
   double ground_gsd = std::nan("");
-  bool no_ncc = false, no_refine = false, ncc_correlation = false;
+  double max_relief = std::nan(""), relief_radius = std::nan("");
+  bool no_ncc = false, no_refine = false, ncc_correlation = false, calm = false;
 };
 
 Arguments parse(int argc, char** argv) {
@@ -105,9 +111,12 @@ Arguments parse(int argc, char** argv) {
     else if (s == "--min-score") a.min_score = std::stod(value());
     else if (s == "--min-margin") a.min_margin = std::stod(value());
     else if (s == "--ground-gsd") a.ground_gsd = std::stod(value());
+    else if (s == "--max-relief") a.max_relief = std::stod(value());
+    else if (s == "--relief-radius") a.relief_radius = std::stod(value());
     else if (s == "--no-ncc") a.no_ncc = true;
     else if (s == "--ncc-correlation") a.ncc_correlation = true;
     else if (s == "--no-refine") a.no_refine = true;
+    else if (s == "--calm") a.calm = true;
     else {
       std::fprintf(stderr, "unknown argument %s\n", s.c_str());
       std::exit(1);
@@ -228,6 +237,8 @@ int main(int argc, char** argv) {
     if (std::isfinite(args.min_margin)) options.correlation.match.min_margin = args.min_margin;
     // --ground-gsd sets the correlation method's threshold (the descriptor methods keep the paper's).
     if (std::isfinite(args.ground_gsd)) options.correlation.ground_threshold_gsd = args.ground_gsd;
+    if (std::isfinite(args.max_relief)) options.correlation.max_relief_gsd = args.max_relief;
+    if (std::isfinite(args.relief_radius)) options.correlation.relief_radius_px = args.relief_radius;
     if (args.no_ncc) options.use_ncc = false;
     if (args.ncc_correlation) options.correlation.use_ncc = true;
     if (args.no_refine) options.ncc.refine = false;
@@ -244,6 +255,15 @@ int main(int argc, char** argv) {
       SceneOptions scene_options = SceneOptions::decades_apart();
       scene_options.seed = args.first_seed + static_cast<std::uint64_t>(s);
       scene_options.threads = args.threads;
+      if (args.calm) {
+        ChangeOptions none;
+        none.changed_field_fraction = none.removed_building_fraction = none.new_building_fraction = 0.0;
+        none.seasonal_shift = 0.0;
+        scene_options.changes = none;
+        scene_options.texture.bush_removal_probability = 0.0;
+        scene_options.epochs[0].look = scene_options.epochs[1].look;
+        scene_options.epochs[0].look.jpeg_quality = 0;
+      }
       auto t0 = std::chrono::steady_clock::now();
       const Scene scene = generate_scene(scene_options);
       std::fprintf(stderr, "seed %llu: scene in %.1f s\n", static_cast<unsigned long long>(scene_options.seed),

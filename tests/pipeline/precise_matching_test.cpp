@@ -5,11 +5,13 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <map>
 #include <string>
 #include <vector>
 
 #include <catch2/catch.hpp>
 
+#include <diachron/core/progress.hpp>
 #include <diachron/eval/match_truth.hpp>
 #include <diachron/pipeline/overlapping_pairs.hpp>
 #include <diachron/pipeline/precise_matching.hpp>
@@ -94,11 +96,25 @@ TEST_CASE("guided precise matching: correct matches on every overlapping pair, w
   REQUIRE(f.pairs.size() >= 2);
   PreciseMatchingOptions options;
   options.threads = 2;
+  std::vector<ProgressEvent> events;  // the library serialises the calls
+  options.progress = [&events](const ProgressEvent& e) { events.push_back(e); };
   const PreciseMatchingReport report = precise_matching_guided(epoch_view(f, 0), epoch_view(f, 1),
                                                                f.scene.epoch2_from_epoch1(), f.pairs,
                                                                RootSiftExtractor{}, options);
   INFO(report.message);
   REQUIRE(report.success);
+  // Progress: every stage starts at 0, counts up by one unit per call, and ends at its total; the
+  // pair stage counts the pairs.
+  std::map<std::string, std::vector<ProgressEvent>> stages;
+  for (const ProgressEvent& e : events) stages[e.stage].push_back(e);
+  REQUIRE(stages.count("precise matching (pairs)") == 1);
+  CHECK(stages["precise matching (pairs)"].back().total == f.pairs.size());
+  for (const auto& [stage, list] : stages) {
+    INFO(stage);
+    CHECK(list.front().done == 0);
+    for (std::size_t i = 1; i < list.size(); ++i) CHECK(list[i].done == list[i - 1].done + 1);
+    CHECK(list.back().done == list.back().total);
+  }
   REQUIRE(report.pairs.size() == f.pairs.size());
   for (std::size_t k = 0; k < report.pairs.size(); ++k) {
     const PrecisePairReport& p = report.pairs[k];

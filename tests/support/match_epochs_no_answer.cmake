@@ -1,0 +1,35 @@
+# match_epochs on two epoch folders whose DSMs are too small to co-register (a 480 x 360 px,
+# 1 x 2 image scene from make_scene): the program must answer "no co-registration" with exit 2,
+# still write report.json, and leave the input folders as they were.
+#   cmake -DMAKE_SCENE=... -DMATCH_EPOCHS=... -DWORK=... -P match_epochs_no_answer.cmake
+file(REMOVE_RECURSE "${WORK}")
+file(MAKE_DIRECTORY "${WORK}")
+execute_process(COMMAND "${MAKE_SCENE}" "${WORK}/scene" --image-size 480x360 --images-per-epoch 1x2 --seed 1
+                RESULT_VARIABLE made OUTPUT_QUIET ERROR_VARIABLE made_err)
+if(NOT made EQUAL 0)
+  message(FATAL_ERROR "make_scene failed (${made}): ${made_err}")
+endif()
+file(GLOB_RECURSE before RELATIVE "${WORK}/scene" "${WORK}/scene/*")
+execute_process(COMMAND "${MATCH_EPOCHS}" "${WORK}/scene/e1" "${WORK}/scene/e2" --out "${WORK}/out" --quiet
+                RESULT_VARIABLE status OUTPUT_VARIABLE out ERROR_VARIABLE err)
+if(NOT status EQUAL 2)
+  message(FATAL_ERROR "match_epochs exited with ${status}, expected 2\n${out}\n${err}")
+endif()
+if(NOT out MATCHES "no co-registration: [^\n]+")
+  message(FATAL_ERROR "match_epochs gave no reason for its exit 2:\n${out}\n${err}")
+endif()
+if(NOT EXISTS "${WORK}/out/report.json")
+  message(FATAL_ERROR "match_epochs wrote no report.json")
+endif()
+file(READ "${WORK}/out/report.json" report)
+if(NOT report MATCHES "\"success\": *false")
+  message(FATAL_ERROR "report.json does not record the failure:\n${report}")
+endif()
+if(EXISTS "${WORK}/out/Homol" OR EXISTS "${WORK}/out/rough_helmert.json")
+  message(FATAL_ERROR "match_epochs wrote tie points or a Helmert although it found no co-registration")
+endif()
+file(GLOB_RECURSE after RELATIVE "${WORK}/scene" "${WORK}/scene/*")
+if(NOT before STREQUAL after)
+  message(FATAL_ERROR "match_epochs changed its input folders")
+endif()
+message(STATUS "exit 2 with: ${out}")
