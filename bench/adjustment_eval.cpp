@@ -209,7 +209,7 @@ int main(int argc, char** argv) {
     else {
       std::fprintf(stderr,
                    "usage: adjustment_eval [--seeds N] [--first-seed S] [--threads N] [--no-colmap] [--colmap-work DIR] "
-                   "[--max-relief G]\n");
+                   "[--max-relief G] [--cell PX]\n");
       return 1;
     }
   }
