@@ -55,7 +55,16 @@ std::vector<EpochPairMatches> epoch_pair_matches(const PairReports& pairs) {
 struct CombinedAdjustmentOptions {
   /// The bundle adjustment. When `bundle.epochs` is empty the stage fills it: epoch 1 all free,
   /// epoch 2 fixed when `fix_reference_epoch` (else free too, and the gauge is fixed internally).
-  BundleOptions bundle;
+  /// Inter-epoch matches count as 3 px observations, intra-epoch tie points as 1 px: matches across
+  /// decades err more (correlation matches: median 1.14 epoch-2 px), and systematically, and 1 px
+  /// lets their errors bend epoch 1's camera (decades seeds: smaller distortion errors and equal or
+  /// smaller check-point errors at 3 px, docs/adjustment.md). Set 1 px for matches as precise as
+  /// the tie points.
+  BundleOptions bundle = [] {
+    BundleOptions o;
+    o.inter_epoch_sigma_px = 3.0;
+    return o;
+  }();
   /// Hold epoch 2's poses, camera and affine parts fixed (its orientation is the reference, as
   /// MicMac's FrozenPoses).
   bool fix_reference_epoch = true;
