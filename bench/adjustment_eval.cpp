@@ -325,7 +325,7 @@ int main(int argc, char** argv) {
       if (v == "no affine") options.bundle.epochs = {EpochFreedom{true, true, false}, EpochFreedom::all_fixed()};
       if (v == "e2 camera free") options.bundle.epochs = {EpochFreedom::all_free(), EpochFreedom{false, true, true}};
       if (v == "both free") options.fix_reference_epoch = false;
-      if (v == "inter sigma 1") options.bundle.inter_epoch_sigma_px = 1.0;
+      if (v == "inter sigma 1") options.bundle.inter_epoch_sigma_px = options.bundle.intra_epoch_sigma_px;
       if (v == "oracle e2 frames")
         for (std::size_t i = 0; i < e2.images.size(); ++i) reference.frames[i] = e2.epoch_frame(i);
       t0 = std::chrono::steady_clock::now();
@@ -361,7 +361,7 @@ int main(int argc, char** argv) {
     for (double p : e1.camera.params()) std::fprintf(stderr, " %.6g", p);
     std::fprintf(stderr, "\n  e2 as the SfM had it: distortion %.2f px off, f %+.2f px\n",
                  distortion_difference(e2.estimated_camera, e2.camera).max_px, e2.estimated_camera.focal() - e2.camera.focal());
-    if (colmap)
+    if (colmap && !full_tracks.empty())  // COLMAP gets the shipped adjustment's tracks; none if it failed
       results["colmap"].push_back(run_colmap(scene, e1_moved, frames2, full_tracks, observed,
                                              colmap_work + "/seed" + std::to_string(scene_options.seed)));
     for (const char* v : kVariants) {

@@ -256,7 +256,7 @@ int main(int argc, char** argv) {
       scene_options.seed = args.first_seed + static_cast<std::uint64_t>(s);
       scene_options.threads = args.threads;
       if (args.calm) {
-        ChangeOptions none;
+        ChangeOptions none;  // the decades' own changes (trees, layouts, roads) are 0 by default
         none.changed_field_fraction = none.removed_building_fraction = none.new_building_fraction = 0.0;
         none.seasonal_shift = 0.0;
         scene_options.changes = none;
