@@ -22,11 +22,13 @@
 // epoch-2 orientation fixed, "oracle matches" matches the same master points by the truth.
 //
 //   adjustment_eval [--seeds N] [--first-seed S] [--threads N] [--no-colmap] [--colmap-work DIR]
-//                   [--max-relief G] [--cell PX]
+//                   [--max-relief G] [--cell PX] [--e1-block RxC]
 //
 // --max-relief G: precise matching skips master points whose ground is not locally a plane to G
 // secondary GSD (PreciseCorrelationOptions::max_relief_gsd; default off, as match_epochs).
 // --cell PX: correlation master points per PX px cell (default 6, as match_epochs).
+// --e1-block RxC: epoch 1 flown as R strips of C images (default 2x2, SceneOptions::decades_apart()),
+// at the same overlaps: how much the block's size, not the matches, limits the self-calibration.
 //
 // Prints one line per seed and variant on stderr and a Markdown table (medians over the seeds) on
 // stdout. Not a test: docs/adjustment.md holds its output.
@@ -194,6 +196,7 @@ int main(int argc, char** argv) {
   std::string colmap_work = "adjustment_eval_colmap";
   double max_relief = 0.0;
   int cell = 0;  // 0: the library's default
+  int e1_rows = 0, e1_columns = 0;  // 0: the scene's default
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     const auto value = [&]() -> std::string {
@@ -207,10 +210,14 @@ int main(int argc, char** argv) {
     else if (a == "--colmap-work") colmap_work = value();
     else if (a == "--max-relief") max_relief = std::stod(value());
     else if (a == "--cell") cell = std::stoi(value());
-    else {
+    else if (a == "--e1-block") {
+      const std::string b = value();
+      if (std::sscanf(b.c_str(), "%dx%d", &e1_rows, &e1_columns) != 2 || e1_rows < 1 || e1_columns < 1)
+        throw std::runtime_error("--e1-block needs RxC, e.g. 3x3, got " + b);
+    } else {
       std::fprintf(stderr,
                    "usage: adjustment_eval [--seeds N] [--first-seed S] [--threads N] [--no-colmap] [--colmap-work DIR] "
-                   "[--max-relief G] [--cell PX]\n");
+                   "[--max-relief G] [--cell PX] [--e1-block RxC]\n");
       return 1;
     }
   }
@@ -222,6 +229,10 @@ int main(int argc, char** argv) {
     SceneOptions scene_options = SceneOptions::decades_apart();
     scene_options.seed = first_seed + static_cast<std::uint64_t>(s);
     scene_options.threads = threads;
+    if (e1_rows > 0) {
+      scene_options.epochs[0].rows = e1_rows;
+      scene_options.epochs[0].columns = e1_columns;
+    }
     auto t0 = std::chrono::steady_clock::now();
     const Scene scene = generate_scene(scene_options);
     const SyntheticEpoch& e1 = scene.epochs[0];
