@@ -145,6 +145,71 @@ TEST_CASE("bundle_adjust: staged intrinsics reach the same solution", "[adjustme
   CHECK(distortion_difference(staged.frames[0].camera(), plain.frames[0].camera()).max_px < 0.1);
 }
 
+TEST_CASE("bundle_adjust: AffineScope::per_camera shares B1, B2 over a camera's images", "[adjustment]") {
+  // The fixture's epoch-0 images share one true camera (B1 0.4, B2 -0.2 px) and start at B1 = B2 = 0.
+  const test::Block b = test::make_block(/*seed=*/1, /*points=*/1000);
+  BundleOptions o = reference_fixed();
+  const BundleResult per_image = bundle_adjust(block_input(b), o);
+  o.affine_scope = AffineScope::per_camera;
+  const BundleResult shared = bundle_adjust(block_input(b), o);
+  INFO(shared.report.message);
+  REQUIRE(per_image.report.success);
+  REQUIRE(shared.report.success);
+  const auto n0 = static_cast<std::size_t>(b.epoch0_images);
+  const Camera<FraserAffine>& truth = b.truth[0].camera();
+  const auto b1 = [](const Frame<FraserAffine>& f) { return f.camera().params()[5]; };
+  // Per image, each scan gets its own values; per camera, one pair for all of them.
+  bool differ = false;
+  for (std::size_t i = 1; i < n0; ++i) {
+    differ = differ || b1(per_image.frames[i]) != b1(per_image.frames[0]);
+    CHECK(shared.frames[i].camera().intrinsics() == shared.frames[0].camera().intrinsics());
+  }
+  CHECK(differ);
+  // The shared pair is the true one within 3 of its reported standard deviations, and each image's
+  // report entry shows it.
+  REQUIRE(shared.report.affine.size() == b.truth.size());
+  const ParameterChange& reported_b1 = shared.report.affine[0].values[0];
+  const ParameterChange& reported_b2 = shared.report.affine[0].values[1];
+  INFO("B1 " << reported_b1.after << " +- " << reported_b1.sigma << ", B2 " << reported_b2.after << " +- " << reported_b2.sigma);
+  CHECK(reported_b1.after == b1(shared.frames[0]));
+  CHECK(reported_b1.before == 0.0);
+  CHECK(std::abs(reported_b1.after - truth.params()[5]) < 3.0 * reported_b1.sigma);
+  CHECK(std::abs(reported_b2.after - truth.params()[6]) < 3.0 * reported_b2.sigma);
+  CHECK(reported_b1.sigma < 0.2);
+  for (std::size_t i = 0; i < n0; ++i) {
+    CHECK(shared.report.affine[i].free);
+    CHECK(shared.report.affine[i].values[0].sigma == reported_b1.sigma);
+  }
+  // The fixed epoch's shared pair stays as it was.
+  for (std::size_t i = n0; i < b.truth.size(); ++i) {
+    CHECK_FALSE(shared.report.affine[i].free);
+    CHECK(shared.frames[i].camera().intrinsics() == b.estimated[i].camera().intrinsics());
+  }
+  // Two parameters instead of two per image: the block is recovered as well as per image.
+  const double shared_error = distortion_difference(shared.frames[0].camera(), truth).max_px;
+  INFO("worst distortion error: per image " << distortion_difference(per_image.frames[0].camera(), truth).max_px
+                                            << " px, per camera " << shared_error << " px");
+  CHECK(shared_error < 0.7);
+  CHECK(epoch0_ground_rms(shared.frames, b) < 0.5);
+}
+
+TEST_CASE("BundleProblem: a camera shared by a fixed and a free epoch keeps its shared affine fixed", "[adjustment]") {
+  const test::Block b = test::make_block(/*seed=*/4);
+  BundleInput input = block_input(b);
+  input.image_camera.assign(b.truth.size(), 0);  // one camera for both epochs
+  input.points.assign(input.tracks.size(), Vec3::Constant(std::numeric_limits<double>::quiet_NaN()));
+  BundleOptions o = reference_fixed();
+  o.affine_scope = AffineScope::per_camera;
+  const BundleProblem problem(input, o);
+  CHECK(problem.camera_count() == 1);
+  CHECK_FALSE(problem.affine_free(0));
+  CHECK_FALSE(problem.affine_free(b.truth.size() - 1));
+  o.affine_scope = AffineScope::per_image;
+  const BundleProblem per_image(input, o);
+  CHECK(per_image.affine_free(0));
+  CHECK_FALSE(per_image.affine_free(b.truth.size() - 1));
+}
+
 TEST_CASE("bundle_adjust: EstimateRobust, gross outliers are rejected and the solve repeated", "[adjustment]") {
   test::Block b = test::make_block(/*seed=*/3);
   // Spoil 5 % of the inter-epoch matches by 40 px.

@@ -228,7 +228,8 @@ inline BundleResult bundle_adjust(const BundleInput& input, const BundleOptions&
   }
   for (std::size_t i = 0; i < problem.image_count(); ++i) {
     const double* b = problem.affine_block_of(i).data();
-    if (last->HasParameterBlock(b) && !last->IsParameterBlockConstant(b)) blocks.emplace_back(b, b);
+    const bool listed = std::any_of(blocks.begin(), blocks.end(), [b](const auto& p) { return p.first == b; });
+    if (!listed && last->HasParameterBlock(b) && !last->IsParameterBlockConstant(b)) blocks.emplace_back(b, b);
   }
   ceres::Covariance::Options covariance_options;
   covariance_options.num_threads = options.num_threads;
@@ -272,8 +273,16 @@ inline BundleResult bundle_adjust(const BundleInput& input, const BundleOptions&
     }
     ImageAffineReport affine;
     affine.image = static_cast<int>(i);
-    affine.free = problem.freedom(problem.epoch_of(i)).affine;
-    const auto before_affine = affine_block(input.frames[i].camera());
+    affine.free = problem.affine_free(i);
+    // Per camera, the shared block started from the camera's first image.
+    std::size_t source = i;
+    if (options.affine_scope == AffineScope::per_camera)
+      for (std::size_t j = 0; j < i; ++j)
+        if (problem.camera_of(j) == problem.camera_of(i)) {
+          source = j;
+          break;
+        }
+    const auto before_affine = affine_block(input.frames[source].camera());
     const std::vector<double> s = sigmas(problem.affine_block_of(i).data(), kAffineBlockSize);
     affine.values.push_back({"B1", before_affine[0], problem.affine_block_of(i)[0], s[0]});
     affine.values.push_back({"B2", before_affine[1], problem.affine_block_of(i)[1], s[1]});

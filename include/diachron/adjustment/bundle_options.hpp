@@ -19,13 +19,20 @@ enum class RobustLoss {
   cauchy,  ///< log(1 + s / scale^2): strongly downweights large residuals
 };
 
+/// Where the affine part B1, B2 of a FraserAffine camera lives in the adjustment.
+enum class AffineScope {
+  per_image,   ///< one [B1, B2] per image: each scan of a film deforms on its own
+  per_camera,  ///< one [B1, B2] per camera, as MicMac's Fraser calibration keeps b1, b2: one
+               ///< scanner and one film stock for a flight, 2 parameters instead of 2 per image
+};
+
 /// Which parameter blocks of the images of one epoch the adjustment may change.
 /// The reference epoch with a known orientation keeps poses and camera fixed, like MicMac's
 /// FrozenPoses; an epoch to be co-registered and self-calibrated frees everything.
 struct EpochFreedom {
   bool poses = true;   ///< the images' poses (angle-axis + centre)
   bool camera = true;  ///< the epoch's cameras [f, cx, cy, K1, K2, K3, P1, P2]
-  bool affine = true;  ///< the images' affine parts [B1, B2]
+  bool affine = true;  ///< the images' affine parts [B1, B2] (per image or per camera: AffineScope)
 
   /// Everything free: co-registration with self-calibration.
   static EpochFreedom all_free() { return {true, true, true}; }
@@ -43,6 +50,9 @@ struct BundleOptions {
   /// Standard deviation of an inter-epoch match observation, px. > 0. Raise it to trust the
   /// epochs' own tie points more than the cross-epoch matches.
   double inter_epoch_sigma_px = 1.0;
+  /// Per image (default) or per camera. Per camera, a camera's [B1, B2] starts from its first
+  /// image's values and is free when every epoch it serves frees the affine part.
+  AffineScope affine_scope = AffineScope::per_image;
   /// Robust loss and its scale, px (the point where it departs from least squares). scale > 0.
   RobustLoss loss = RobustLoss::huber;
   double loss_scale_px = 1.0;

@@ -119,12 +119,18 @@ class BundleProblem {
       epochs_ = std::max(epochs_, epoch_[i] + 1);
     }
     cameras_.assign(static_cast<std::size_t>(cameras), {});
+    const bool shared_affine = options_.affine_scope == AffineScope::per_camera;
+    if (shared_affine) affine_.assign(static_cast<std::size_t>(cameras), {});
     std::vector<bool> seen(static_cast<std::size_t>(cameras), false);
     for (std::size_t i = 0; i < n; ++i) {
       const auto c = static_cast<std::size_t>(camera_[i]);
-      if (!seen[c]) cameras_[c] = fraser_camera_block(input.frames[i].camera());
+      if (!seen[c]) {
+        cameras_[c] = fraser_camera_block(input.frames[i].camera());
+        if (shared_affine) affine_[c] = affine_block(input.frames[i].camera());
+      }
       seen[c] = true;
-      affine_.push_back(affine_block(input.frames[i].camera()));
+      if (!shared_affine) affine_.push_back(affine_block(input.frames[i].camera()));
+      affine_slot_.push_back(shared_affine ? c : i);
       poses_.push_back(pose_block(input.frames[i].pose()));
       sizes_.emplace_back(input.frames[i].camera().width(), input.frames[i].camera().height());
     }
@@ -155,8 +161,9 @@ class BundleProblem {
 
   /// Camera block [f, cx, cy, K1, K2, K3, P1, P2] of camera c.
   std::array<double, kFraserCameraBlockSize>& camera_block(std::size_t c) { return cameras_[c]; }
-  /// Affine block [B1, B2] of image i.
-  std::array<double, kAffineBlockSize>& affine_block_of(std::size_t i) { return affine_[i]; }
+  /// Affine block [B1, B2] of image i (its camera's with AffineScope::per_camera).
+  std::array<double, kAffineBlockSize>& affine_block_of(std::size_t i) { return affine_[affine_slot_[i]]; }
+  const std::array<double, kAffineBlockSize>& affine_block_of(std::size_t i) const { return affine_[affine_slot_[i]]; }
   /// Pose block [angle-axis, C] of image i.
   std::array<double, kPoseBlockSize>& pose_block_of(std::size_t i) { return poses_[i]; }
   /// Point block of track t.
@@ -178,10 +185,19 @@ class BundleProblem {
     return any;
   }
 
+  /// Whether image i's affine block is free: its epoch frees the affine part and, per camera,
+  /// so does every epoch the camera serves.
+  bool affine_free(std::size_t i) const {
+    if (options_.affine_scope == AffineScope::per_image) return freedom(epoch_[i]).affine;
+    for (std::size_t j = 0; j < image_count(); ++j)
+      if (camera_[j] == camera_[i] && !freedom(epoch_[j]).affine) return false;
+    return true;
+  }
+
   /// The adjusted frame of image i. Precondition: valid camera values (throws diachron::Error).
   Frame<FraserAffine> frame(std::size_t i) const {
     const auto c = static_cast<std::size_t>(camera_[i]);
-    return Frame<FraserAffine>(camera_from_blocks(cameras_[c].data(), affine_[i].data(), sizes_[i].first, sizes_[i].second),
+    return Frame<FraserAffine>(camera_from_blocks(cameras_[c].data(), affine_block_of(i).data(), sizes_[i].first, sizes_[i].second),
                                pose_from_block(poses_[i].data()));
   }
 
@@ -191,7 +207,7 @@ class BundleProblem {
     SplitAffineReprojectionError error(o.pixel, 1.0);
     const auto i = static_cast<std::size_t>(o.image);
     double r[2];
-    if (!error(cameras_[static_cast<std::size_t>(camera_[i])].data(), affine_[i].data(), poses_[i].data(),
+    if (!error(cameras_[static_cast<std::size_t>(camera_[i])].data(), affine_block_of(i).data(), poses_[i].data(),
                points_[o.track].data(), r))
       return std::numeric_limits<double>::infinity();
     return std::hypot(r[0], r[1]);
@@ -240,7 +256,7 @@ class BundleProblem {
       const double sigma =
           o.kind == ObservationKind::inter_epoch ? options_.inter_epoch_sigma_px : options_.intra_epoch_sigma_px;
       problem.AddResidualBlock(SplitAffineReprojectionError::create(o.pixel, sigma), make_loss(sigma),
-                               cameras_[static_cast<std::size_t>(camera_[i])].data(), affine_[i].data(), poses_[i].data(),
+                               cameras_[static_cast<std::size_t>(camera_[i])].data(), affine_block_of(i).data(), poses_[i].data(),
                                points_[o.track].data());
     }
     for (const GroundControlPoint& g : control_) {
@@ -255,7 +271,7 @@ class BundleProblem {
         problem.SetParameterBlockConstant(poses_[i].data());
         any_pose_fixed = true;
       }
-      if (!f.affine || stage != IntrinsicsStage::all) problem.SetParameterBlockConstant(affine_[i].data());
+      if (!affine_free(i) || stage != IntrinsicsStage::all) problem.SetParameterBlockConstant(affine_block_of(i).data());
     }
     for (std::size_t c = 0; c < camera_count(); ++c) {
       double* block = cameras_[c].data();
@@ -326,7 +342,8 @@ class BundleProblem {
   std::vector<int> camera_;
   int epochs_ = 0;
   std::vector<std::array<double, kFraserCameraBlockSize>> cameras_;
-  std::vector<std::array<double, kAffineBlockSize>> affine_;
+  std::vector<std::array<double, kAffineBlockSize>> affine_;  ///< per image or per camera
+  std::vector<std::size_t> affine_slot_;                       ///< image -> its entry of affine_
   std::vector<std::array<double, kPoseBlockSize>> poses_;
   std::vector<std::pair<int, int>> sizes_;
   std::vector<std::array<double, 3>> points_;

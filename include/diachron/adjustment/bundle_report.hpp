@@ -54,7 +54,7 @@ struct CameraReport {
   std::vector<ParameterChange> values;    ///< f, cx, cy (px), K1, K2, K3, P1, P2
 };
 
-/// The affine part of one image.
+/// The affine part of one image (with AffineScope::per_camera, its camera's shared values).
 struct ImageAffineReport {
   int image = 0;
   bool free = false;
