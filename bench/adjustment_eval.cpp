@@ -98,17 +98,7 @@ const char* const kVariants[] = {"rough",          "intra only",   "no affine", 
 
 // Check points of epoch 1 triangulated with `frames` (epoch-2 frame), errors in world metres.
 CheckPointReport check_points(const Scene& scene, const Frames& frames) {
-  const Helmert3 world_from_e2 = scene.epochs[1].world_from_epoch;
-  std::vector<ObservedCheckPoint> points = scene_check_points(scene, 0, 1);
-  for (ObservedCheckPoint& p : points) p.truth = world_from_e2(p.truth);
-  const FrameTriangulator<FraserAffine> triangulate(frames);
-  return evaluate_check_points(
-      points,
-      [&](const std::vector<CheckPointObservation>& obs) -> std::optional<Vec3> {
-        const std::optional<Vec3> p = triangulate(obs);
-        return p ? std::optional<Vec3>(world_from_e2(*p)) : std::nullopt;
-      },
-      scene.epochs[0].gsd_m);
+  return evaluate_scene_check_points(scene, 0, 1, FrameTriangulator<FraserAffine>(frames));
 }
 
 void judge(Outcome& o, const Scene& scene, const Frames& epoch1, const std::vector<Vec2>& observed) {

@@ -54,17 +54,7 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 // Epoch 1's check points triangulated from their true pixels with `frames` (epoch-2 frame), against
 // their true position; errors in world metres and in epoch-1 GSD.
 CheckPointReport check_points(const Scene& scene, const Frames& frames) {
-  const Helmert3 world_from_e2 = scene.epochs[1].world_from_epoch;
-  std::vector<ObservedCheckPoint> points = scene_check_points(scene, 0, 1);
-  for (ObservedCheckPoint& p : points) p.truth = world_from_e2(p.truth);
-  const FrameTriangulator<FraserAffine> triangulate(frames);
-  return evaluate_check_points(
-      points,
-      [&](const std::vector<CheckPointObservation>& obs) -> std::optional<Vec3> {
-        const std::optional<Vec3> p = triangulate(obs);
-        return p ? std::optional<Vec3>(world_from_e2(*p)) : std::nullopt;
-      },
-      scene.epochs[0].gsd_m);
+  return evaluate_scene_check_points(scene, 0, 1, FrameTriangulator<FraserAffine>(frames));
 }
 
 void print_check_points(const char* name, const CheckPointReport& r) {

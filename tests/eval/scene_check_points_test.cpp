@@ -3,6 +3,7 @@
 // estimated" one (wrong focal, principal point and distortion) gives errors of metres.
 #include <catch2/catch.hpp>
 
+#include <cmath>
 #include <cstddef>
 #include <optional>
 #include <vector>
@@ -100,4 +101,25 @@ TEST_CASE("evaluate_check_points on a scene: true orientation exact, estimated o
   CHECK(rough.rms_3d_m > 0.5);
   CHECK(rough.rms_3d_gsd == Approx(rough.rms_3d_m / gsd));
   CAPTURE(rough.axes_m[0].mean, rough.axes_m[1].mean, rough.axes_m[2].mean, rough.rms_3d_m, gsd);
+}
+
+TEST_CASE("evaluate_scene_check_points: errors in world metres whatever the frame's scale", "[eval]") {
+  const Scene& s = scene();
+  const double scale = s.epochs[1].world_from_epoch.scale;
+  REQUIRE(std::abs(scale - 1.0) > 0.05);  // a frame whose units are not metres, else the test proves nothing
+  const RayTriangulator exact = epoch1_in_epoch2(s, false);
+  const CheckPointReport truth = evaluate_scene_check_points(s, 0, 1, exact);
+  REQUIRE(truth.success);
+  CHECK(truth.rms_3d_m < 1e-4);
+  // One unit of epoch 2's frame off along X is `scale` metres in the world.
+  const auto shifted = [&exact](const std::vector<CheckPointObservation>& o) -> std::optional<Vec3> {
+    const std::optional<Vec3> p = exact(o);
+    return p ? std::optional<Vec3>(*p + Vec3(1.0, 0.0, 0.0)) : std::nullopt;
+  };
+  const CheckPointReport off = evaluate_scene_check_points(s, 0, 1, shifted);
+  REQUIRE(off.success);
+  CHECK(off.num_used == truth.num_used);
+  CHECK(off.rms_3d_m == Approx(scale).epsilon(1e-6));
+  CHECK(off.rms_3d_gsd == Approx(scale / s.epochs[0].gsd_m).epsilon(1e-6));
+  CHECK_THROWS_AS(evaluate_scene_check_points(s, 0, 2, exact), Error);
 }

@@ -32,17 +32,7 @@ namespace {
 using Frames = std::vector<Frame<FraserAffine>>;
 
 CheckPointReport check_points(const Scene& scene, const Frames& epoch1) {
-  const Helmert3 world_from_e2 = scene.epochs[1].world_from_epoch;
-  std::vector<ObservedCheckPoint> points = scene_check_points(scene, 0, 1);
-  for (ObservedCheckPoint& p : points) p.truth = world_from_e2(p.truth);
-  const FrameTriangulator<FraserAffine> triangulate(epoch1);
-  return evaluate_check_points(
-      points,
-      [&](const std::vector<CheckPointObservation>& obs) -> std::optional<Vec3> {
-        const std::optional<Vec3> p = triangulate(obs);
-        return p ? std::optional<Vec3>(world_from_e2(*p)) : std::nullopt;
-      },
-      scene.epochs[0].gsd_m);
+  return evaluate_scene_check_points(scene, 0, 1, FrameTriangulator<FraserAffine>(epoch1));
 }
 
 int fail(const std::string& why) {

@@ -5,6 +5,7 @@
 /// being evaluated. Needs Eigen and the standard library only.
 
 #include <cstddef>
+#include <optional>
 #include <vector>
 
 #include <diachron/core/error.hpp>
@@ -35,6 +36,27 @@ inline std::vector<ObservedCheckPoint> scene_check_points(const Scene& scene, st
     out.push_back(std::move(p));
   }
   return out;
+}
+
+/// Every check point of `scene`, triangulated from its true pixels in epoch `observed` and judged in
+/// the world frame: `triangulate` (std::vector<CheckPointObservation> -> std::optional<Vec3>, e.g. a
+/// FrameTriangulator over epoch `observed`'s frames moved into epoch `reference`'s frame) answers in
+/// epoch `reference`'s frame, and its answer is moved to the world by that epoch's true
+/// world_from_epoch. Errors are thus in metres whatever the scale of the SfM frames, and in epoch
+/// `observed`'s GSD. Precondition: both epoch indices exist, else throws diachron::Error.
+template <class Triangulate>
+CheckPointReport evaluate_scene_check_points(const Scene& scene, std::size_t observed, std::size_t reference,
+                                             Triangulate&& triangulate) {
+  std::vector<ObservedCheckPoint> points = scene_check_points(scene, observed, reference);
+  for (std::size_t k = 0; k < points.size(); ++k) points[k].truth = scene.check_points[k].world;
+  const Helmert3& world_from_reference = scene.epochs[reference].world_from_epoch;
+  return evaluate_check_points(
+      points,
+      [&](const std::vector<CheckPointObservation>& observations) -> std::optional<Vec3> {
+        const std::optional<Vec3> p = triangulate(observations);
+        return p ? std::optional<Vec3>(world_from_reference(*p)) : std::nullopt;
+      },
+      scene.epochs[observed].gsd_m);
 }
 
 }  // namespace diachron
