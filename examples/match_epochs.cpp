@@ -272,7 +272,7 @@ int main(int argc, char** argv) {
       affine = "image";
   PreciseMatchingOptions options;
   OverlappingPairsOptions overlap_options;
-  bool quiet = false, pictures = true, adjust = false;
+  bool quiet = false, pictures = true, adjust = false, affine_given = false;
   double min_overlap = 0.1;
   std::size_t threads = 0;
 #if DIACHRON_MATCH_EPOCHS_ADJUST
@@ -300,7 +300,10 @@ int main(int argc, char** argv) {
       else if (a == "--no-pictures") pictures = false;
       else if (a == "--threads") threads = std::stoul(value());
       else if (a == "--adjust") adjust = true;
-      else if (a == "--affine") affine = value();
+      else if (a == "--affine") {
+        affine = value();
+        affine_given = true;
+      }
       else if (a == "--quiet") quiet = true;
       else if (a == "--help" || a == "-h") {
         std::cout << kUsage;
@@ -315,6 +318,7 @@ int main(int argc, char** argv) {
     DIACHRON_CHECK(!adjust, "--adjust needs a build with Ceres (diachron::adjustment)");
 #endif
     DIACHRON_CHECK(affine == "image" || affine == "camera", "unknown --affine '" << affine << "' (image or camera)");
+    DIACHRON_CHECK(adjust || !affine_given, "--affine needs --adjust");
     DIACHRON_CHECK(method == "patch" || method == "guided" || method == "correlation",
                    "unknown --method '" << method << "' (correlation, patch or guided)");
     if (measure == "intensity") options.correlation.match.measure = CorrelationMeasure::intensity;
