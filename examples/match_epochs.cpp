@@ -165,11 +165,11 @@ std::string json_number_or_null(double v) {
 
 // The "adjustment" section of report.json.
 std::string adjustment_json(const CombinedAdjustmentResult& a, const AdjustedExportReport* exported,
-                            const std::string& affine) {
+                            AffineScope affine_scope) {
   const BundleReport& r = a.report;
   std::ostringstream o;
   o << "  \"adjustment\": {\"success\": " << (r.success ? "true" : "false") << ", \"message\": " << quoted(r.message)
-    << ", \"affine_scope\": " << quoted(affine == "camera" ? "per_camera" : "per_image")
+    << ", \"affine_scope\": " << quoted(affine_scope == AffineScope::per_camera ? "per_camera" : "per_image")
     << ",\n    \"tracks\": {\"input\": " << r.tracks_input << ", \"used\": " << r.tracks_used
     << ", \"inter_epoch\": " << r.inter_epoch_tracks << ", \"rejected\": " << r.tracks_rejected
     << ", \"dropped_conflicting\": " << a.tracks.dropped_conflicting << "}, \"observations\": {\"used\": "
@@ -268,11 +268,11 @@ void write_report(const std::string& path, const EpochFolder& e1, const EpochFol
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string dir1, dir2, out_dir, method = "correlation", matcher_name = "rootsift", model_path, measure,
-      affine = "image";
+  // affine: "" (not given: per image), "image" or "camera".
+  std::string dir1, dir2, out_dir, method = "correlation", matcher_name = "rootsift", model_path, measure, affine;
   PreciseMatchingOptions options;
   OverlappingPairsOptions overlap_options;
-  bool quiet = false, pictures = true, adjust = false, affine_given = false;
+  bool quiet = false, pictures = true, adjust = false;
   double min_overlap = 0.1;
   std::size_t threads = 0;
 #if DIACHRON_MATCH_EPOCHS_ADJUST
@@ -300,10 +300,7 @@ int main(int argc, char** argv) {
       else if (a == "--no-pictures") pictures = false;
       else if (a == "--threads") threads = std::stoul(value());
       else if (a == "--adjust") adjust = true;
-      else if (a == "--affine") {
-        affine = value();
-        affine_given = true;
-      }
+      else if (a == "--affine") affine = value();
       else if (a == "--quiet") quiet = true;
       else if (a == "--help" || a == "-h") {
         std::cout << kUsage;
@@ -317,8 +314,9 @@ int main(int argc, char** argv) {
 #if !DIACHRON_MATCH_EPOCHS_ADJUST
     DIACHRON_CHECK(!adjust, "--adjust needs a build with Ceres (diachron::adjustment)");
 #endif
-    DIACHRON_CHECK(affine == "image" || affine == "camera", "unknown --affine '" << affine << "' (image or camera)");
-    DIACHRON_CHECK(adjust || !affine_given, "--affine needs --adjust");
+    DIACHRON_CHECK(affine.empty() || affine == "image" || affine == "camera",
+                   "unknown --affine '" << affine << "' (image or camera)");
+    DIACHRON_CHECK(adjust || affine.empty(), "--affine needs --adjust");
     DIACHRON_CHECK(method == "patch" || method == "guided" || method == "correlation",
                    "unknown --method '" << method << "' (correlation, patch or guided)");
     if (measure == "intensity") options.correlation.match.measure = CorrelationMeasure::intensity;
@@ -446,7 +444,7 @@ int main(int argc, char** argv) {
       std::printf("adjustment: %s\n", r.message.c_str());
       if (!r.success) {
         write_report(out_dir + "/report.json", e1, e2, rough, overlap, precise, method, matcher_name,
-                     adjustment_json(adjusted, nullptr, affine));
+                     adjustment_json(adjusted, nullptr, adjustment_options.bundle.affine_scope));
         std::printf("no adjustment: %s\n", r.message.c_str());
         return 2;
       }
@@ -467,7 +465,7 @@ int main(int argc, char** argv) {
       const AdjustedExportReport exported = write_adjusted_export(images, out_dir, export_options);
       if (pictures) write_residual_pictures(out_dir + "/adjusted/residuals", e1, pictures1, adjusted);
       write_report(out_dir + "/report.json", e1, e2, rough, overlap, precise, method, matcher_name,
-                   adjustment_json(adjusted, &exported, affine));
+                   adjustment_json(adjusted, &exported, adjustment_options.bundle.affine_scope));
       std::printf("reprojection RMS %.3f -> %.3f px (inter-epoch %.3f -> %.3f px); wrote %s and %s "
                   "(largest COLMAP conversion error %.3f px)\n",
                   r.before.all.rms_px, r.after.all.rms_px, r.before.inter_epoch.rms_px, r.after.inter_epoch.rms_px,

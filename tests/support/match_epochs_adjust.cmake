@@ -4,14 +4,8 @@
 # epoch), the adjusted epoch 1 judged at the scene's check points by score_adjusted_epochs, and the
 # inputs unchanged.
 #   cmake -DMAKE_SCENE=... -DMATCH_EPOCHS=... -DSCORE=... -DWORK=... -P match_epochs_adjust.cmake
-file(REMOVE_RECURSE "${WORK}")
-file(MAKE_DIRECTORY "${WORK}")
-execute_process(COMMAND "${MAKE_SCENE}" "${WORK}/scene" --image-size 800x600 --images-per-epoch 2x2 --seed 1
-                RESULT_VARIABLE made OUTPUT_QUIET ERROR_VARIABLE made_err)
-if(NOT made EQUAL 0)
-  message(FATAL_ERROR "make_scene failed (${made}): ${made_err}")
-endif()
-include("${CMAKE_CURRENT_LIST_DIR}/folder_fingerprint.cmake")
+include("${CMAKE_CURRENT_LIST_DIR}/scene_folders.cmake")
+fresh_scene("${WORK}" --image-size 800x600 --images-per-epoch 2x2 --seed 1)
 folder_fingerprint("${WORK}/scene" before)
 execute_process(COMMAND "${MATCH_EPOCHS}" "${WORK}/scene/e1" "${WORK}/scene/e2" --out "${WORK}/out" --adjust --quiet
                 RESULT_VARIABLE status OUTPUT_VARIABLE out ERROR_VARIABLE err)

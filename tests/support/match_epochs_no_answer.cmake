@@ -2,14 +2,8 @@
 # 1 x 2 image scene from make_scene): the program must answer "no co-registration" with exit 2,
 # still write report.json, and leave the input folders as they were.
 #   cmake -DMAKE_SCENE=... -DMATCH_EPOCHS=... -DWORK=... -P match_epochs_no_answer.cmake
-file(REMOVE_RECURSE "${WORK}")
-file(MAKE_DIRECTORY "${WORK}")
-execute_process(COMMAND "${MAKE_SCENE}" "${WORK}/scene" --image-size 480x360 --images-per-epoch 1x2 --seed 1
-                RESULT_VARIABLE made OUTPUT_QUIET ERROR_VARIABLE made_err)
-if(NOT made EQUAL 0)
-  message(FATAL_ERROR "make_scene failed (${made}): ${made_err}")
-endif()
-include("${CMAKE_CURRENT_LIST_DIR}/folder_fingerprint.cmake")
+include("${CMAKE_CURRENT_LIST_DIR}/scene_folders.cmake")
+fresh_scene("${WORK}" --image-size 480x360 --images-per-epoch 1x2 --seed 1)
 folder_fingerprint("${WORK}/scene" before)
 execute_process(COMMAND "${MATCH_EPOCHS}" "${WORK}/scene/e1" "${WORK}/scene/e2" --out "${WORK}/out" --quiet
                 RESULT_VARIABLE status OUTPUT_VARIABLE out ERROR_VARIABLE err)

@@ -56,19 +56,19 @@ int main(int argc, char** argv) {
     const Helmert3 helmert = read_helmert_json(out_dir + "/rough_helmert.json");
     const std::vector<CamerasJsonImage> adjusted = read_cameras_json(out_dir + "/adjusted/cameras.json");
 
-    // cameras.json names images as images.txt does (with the file extension), the scene without it.
+    // cameras.json names images as images.txt does: the scene's name and ".png" (read_scene's lookup).
     std::map<std::string, const CamerasJsonImage*> by_name;
-    for (const CamerasJsonImage& image : adjusted) {
-      std::string name = image.name;
-      if (name.size() > 4 && name.compare(name.size() - 4, 4, ".png") == 0) name.resize(name.size() - 4);
-      by_name[image.epoch + "/" + name] = &image;
-    }
+    for (const CamerasJsonImage& image : adjusted) by_name[image.epoch + "/" + image.name] = &image;
+    const auto entry = [&by_name](const SyntheticEpoch& e, std::size_t i) {
+      const auto it = by_name.find(e.name + "/" + e.images[i].name + ".png");
+      return it == by_name.end() ? nullptr : it->second;
+    };
     Frames rough, after;
     for (std::size_t i = 0; i < e1.images.size(); ++i) {
-      const auto it = by_name.find(e1.name + "/" + e1.images[i].name);
-      if (it == by_name.end()) return fail("cameras.json has no image " + e1.name + "/" + e1.images[i].name);
+      const CamerasJsonImage* image = entry(e1, i);
+      if (!image) return fail("cameras.json has no image " + e1.name + "/" + e1.images[i].name);
       rough.push_back(e1.estimated_frame(i).transformed(helmert));
-      after.push_back(it->second->frame());
+      after.push_back(image->frame());
       const auto shared = [](const Camera<FraserAffine>& c) {
         const auto k = c.intrinsics();
         return std::vector<double>(k.begin(), k.end() - 2);  // all but B1, B2
@@ -78,9 +78,9 @@ int main(int argc, char** argv) {
     }
     const Frames e2_input = e2.estimated_frames();
     for (std::size_t i = 0; i < e2.images.size(); ++i) {
-      const auto it = by_name.find(e2.name + "/" + e2.images[i].name);
-      if (it == by_name.end()) return fail("cameras.json has no image " + e2.name + "/" + e2.images[i].name);
-      const Frame<FraserAffine> f = it->second->frame();
+      const CamerasJsonImage* image = entry(e2, i);
+      if (!image) return fail("cameras.json has no image " + e2.name + "/" + e2.images[i].name);
+      const Frame<FraserAffine> f = image->frame();
       // The reference is fixed: its orientation comes out as it went in (to the printed digits).
       const double moved = (f.pose().centre() - e2_input[i].pose().centre()).norm();
       const double scale = e2_input[i].pose().centre().norm();

@@ -7,6 +7,7 @@
 /// epoch and kind, the intrinsics with their standard deviations, and what was rejected.
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstddef>
@@ -153,6 +154,9 @@ inline BundleResult bundle_adjust(const BundleInput& input, const BundleOptions&
     if (!camera_seen[c]) return finish("camera " + std::to_string(c) + " has no observations");
 
   report.before = problem.rms();
+  // Each image's B1, B2 as the solve starts (per camera, the shared block's starting values).
+  std::vector<std::array<double, kAffineBlockSize>> affine_before;
+  for (std::size_t i = 0; i < problem.image_count(); ++i) affine_before.push_back(problem.affine_block_of(i));
   const ceres::Solver::Options solver = detail::bundle_solver_options(options, problem.image_count());
   std::unique_ptr<ceres::Problem> last;
   const auto solve = [&](IntrinsicsStage stage, const std::string& name) {
@@ -226,10 +230,9 @@ inline BundleResult bundle_adjust(const BundleInput& input, const BundleOptions&
     const double* b = problem.camera_block(c).data();
     if (last->HasParameterBlock(b) && !last->IsParameterBlockConstant(b)) blocks.emplace_back(b, b);
   }
-  for (std::size_t i = 0; i < problem.image_count(); ++i) {
-    const double* b = problem.affine_block_of(i).data();
-    const bool listed = std::any_of(blocks.begin(), blocks.end(), [b](const auto& p) { return p.first == b; });
-    if (!listed && last->HasParameterBlock(b) && !last->IsParameterBlockConstant(b)) blocks.emplace_back(b, b);
+  for (std::size_t k = 0; k < problem.affine_entry_count(); ++k) {
+    const double* b = problem.affine_entry(k).data();
+    if (last->HasParameterBlock(b) && !last->IsParameterBlockConstant(b)) blocks.emplace_back(b, b);
   }
   ceres::Covariance::Options covariance_options;
   covariance_options.num_threads = options.num_threads;
@@ -274,15 +277,7 @@ inline BundleResult bundle_adjust(const BundleInput& input, const BundleOptions&
     ImageAffineReport affine;
     affine.image = static_cast<int>(i);
     affine.free = problem.affine_free(i);
-    // Per camera, the shared block started from the camera's first image.
-    std::size_t source = i;
-    if (options.affine_scope == AffineScope::per_camera)
-      for (std::size_t j = 0; j < i; ++j)
-        if (problem.camera_of(j) == problem.camera_of(i)) {
-          source = j;
-          break;
-        }
-    const auto before_affine = affine_block(input.frames[source].camera());
+    const auto& before_affine = affine_before[i];
     const std::vector<double> s = sigmas(problem.affine_block_of(i).data(), kAffineBlockSize);
     affine.values.push_back({"B1", before_affine[0], problem.affine_block_of(i)[0], s[0]});
     affine.values.push_back({"B2", before_affine[1], problem.affine_block_of(i)[1], s[1]});

@@ -134,6 +134,10 @@ class BundleProblem {
       poses_.push_back(pose_block(input.frames[i].pose()));
       sizes_.emplace_back(input.frames[i].camera().width(), input.frames[i].camera().height());
     }
+    // A shared block is free only when every epoch whose images use it frees the affine part.
+    affine_free_.assign(affine_.size(), true);
+    for (std::size_t i = 0; i < n; ++i)
+      if (!freedom(epoch_[i]).affine) affine_free_[affine_slot_[i]] = false;
     for (const Vec3& p : input.points) points_.push_back({p.x(), p.y(), p.z()});
     for (std::size_t t = 0; t < input.tracks.size(); ++t)
       for (const TrackObservation& o : input.tracks[t].observations) {
@@ -164,6 +168,10 @@ class BundleProblem {
   /// Affine block [B1, B2] of image i (its camera's with AffineScope::per_camera).
   std::array<double, kAffineBlockSize>& affine_block_of(std::size_t i) { return affine_[affine_slot_[i]]; }
   const std::array<double, kAffineBlockSize>& affine_block_of(std::size_t i) const { return affine_[affine_slot_[i]]; }
+  /// Number of distinct affine blocks: one per image, or one per camera.
+  std::size_t affine_entry_count() const { return affine_.size(); }
+  /// Distinct affine block k (k < affine_entry_count()), each once whatever the scope.
+  std::array<double, kAffineBlockSize>& affine_entry(std::size_t k) { return affine_[k]; }
   /// Pose block [angle-axis, C] of image i.
   std::array<double, kPoseBlockSize>& pose_block_of(std::size_t i) { return poses_[i]; }
   /// Point block of track t.
@@ -187,12 +195,7 @@ class BundleProblem {
 
   /// Whether image i's affine block is free: its epoch frees the affine part and, per camera,
   /// so does every epoch the camera serves.
-  bool affine_free(std::size_t i) const {
-    if (options_.affine_scope == AffineScope::per_image) return freedom(epoch_[i]).affine;
-    for (std::size_t j = 0; j < image_count(); ++j)
-      if (camera_[j] == camera_[i] && !freedom(epoch_[j]).affine) return false;
-    return true;
-  }
+  bool affine_free(std::size_t i) const { return affine_free_[affine_slot_[i]]; }
 
   /// The adjusted frame of image i. Precondition: valid camera values (throws diachron::Error).
   Frame<FraserAffine> frame(std::size_t i) const {
@@ -344,6 +347,7 @@ class BundleProblem {
   std::vector<std::array<double, kFraserCameraBlockSize>> cameras_;
   std::vector<std::array<double, kAffineBlockSize>> affine_;  ///< per image or per camera
   std::vector<std::size_t> affine_slot_;                       ///< image -> its entry of affine_
+  std::vector<bool> affine_free_;                              ///< per entry of affine_
   std::vector<std::array<double, kPoseBlockSize>> poses_;
   std::vector<std::pair<int, int>> sizes_;
   std::vector<std::array<double, 3>> points_;
