@@ -10,12 +10,15 @@
 // and the real pair Mount St. Helens 2000 (10 m, whole crater) / 2004-10-13 (2 m, dome area only),
 // each whole, joins the sources (alternately as master and as secondary).
 //
+// --tilt DEG sets the largest tilt between the frames (CoregistrationCaseOptions::tilt_max_deg, 2 by
+// default); the other draws of each case stay the same.
+//
 // With --synthetic, the cases are instead synthetic two-epoch scenes (synth/): each epoch's DSM as
 // an SfM delivers it (own frame, noise, holes, changed buildings), truth epoch2_from_epoch1.
 //
 //   rough_coregistration_eval [--data DIR] [--models DIR] [--cases N] [--overlap MIN MAX]
 //                             [--configs C1,C2,...] [--threads N] [--seed S] [--max-features N]
-//                             [--gaps F1,F2,...] [--only SOURCE] [--verbose]
+//                             [--gaps F1,F2,...] [--only SOURCE] [--tilt DEG] [--verbose]
 //
 // A configuration is IMAGE/MATCHER/TILING/ROTATIONS, e.g. relief/sift/tiles/rot:
 //   IMAGE     stretch2 stretch5 wallis2 wallis5 hillshade multihillshade slope relief
@@ -129,9 +132,12 @@ Config parse_config(const std::string& text) {
     return c;
   }
   // corr: the default with the dense correlation fallback on (RoughCoregistrationOptions::
-  // correlation_fallback), run when every feature hypothesis fails.
-  if (image == "corr") {
+  // correlation_fallback), run when every feature hypothesis fails; corrgrad: the same correlating
+  // the heights' gradient (CorrelationSignal::gradient); corrgradN: also coarse_size_px N.
+  if (image == "corr" || image.rfind("corrgrad", 0) == 0) {
     o.correlation_fallback = true;
+    if (image != "corr") o.correlation_search.signal = CorrelationSignal::gradient;
+    if (image.size() > 8) o.correlation_search.coarse_size_px = std::stod(image.substr(8));
     return c;
   }
   if (image == "noscale") {
@@ -213,6 +219,7 @@ int main(int argc, char** argv) {
   std::vector<int> gaps;  // resolution-gap factors; empty: no gap cases
   std::string only;       // run only the cases whose source name contains this (same seeds as the full run)
   std::string configs_text = "stretch2/sift/whole/norot,relief/sift/tiles/rot";
+  double tilt_max_deg = CoregistrationCaseOptions{}.tilt_max_deg;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto next = [&]() -> std::string {
@@ -233,13 +240,15 @@ int main(int argc, char** argv) {
     else if (a == "--verbose") verbose = true;
     else if (a == "--only") only = next();
     else if (a == "--synthetic") synthetic = true;
+    else if (a == "--tilt") tilt_max_deg = std::stod(next());
     else if (a == "--gaps") {
       std::stringstream gs(next());
       for (std::string g; std::getline(gs, g, ',');) gaps.push_back(std::stoi(g));
     }
     else {
       std::cerr << "usage: rough_coregistration_eval [--data DIR] [--models DIR] [--cases N] [--overlap MIN MAX]\n"
-                   "       [--configs IMAGE/MATCHER/TILING/ROTATIONS,...] [--threads N] [--seed S] [--verbose]\n";
+                   "       [--configs IMAGE/MATCHER/TILING/ROTATIONS,...] [--threads N] [--seed S] [--gaps F1,F2,...]\n"
+                   "       [--only SOURCE] [--tilt DEG] [--synthetic] [--verbose]\n";
       return 1;
     }
   }
@@ -299,6 +308,7 @@ int main(int argc, char** argv) {
     CoregistrationCaseOptions case_options;
     case_options.overlap_min = overlap_min;
     case_options.overlap_max = overlap_max;
+    case_options.tilt_max_deg = tilt_max_deg;
     std::map<std::string, std::vector<Outcome>> results;
     std::map<std::string, std::map<std::string, std::pair<int, int>>> per_source;
     for (std::size_t k = 0; k < cases; ++k) {

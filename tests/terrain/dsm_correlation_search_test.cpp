@@ -142,3 +142,27 @@ TEST_CASE("DsmCorrelationSearch: bad input throws diachron::Error", "[terrain]")
   diachron::DsmCorrelationResult r;
   CHECK_THROWS_AS(diachron::dsm_correlation_correspondences(c.master, c.secondary, r, 0), diachron::Error);
 }
+
+TEST_CASE("DsmCorrelationSearch: the gradient signal finds a master tilted against the secondary", "[terrain]") {
+  const Terrain terrain(11);
+  Case c = make_case(terrain, terrain, 1.4, 127.0, {42.0, 38.0}, 32, 28, false, 84);
+  // A tilt between the frames: a plane of 0.6 and 0.4 height units per master cell. The gradient
+  // of a plane is constant, and each channel is centred on its mean: the tilt drops out.
+  diachron::Raster<float> m = c.master.heights();
+  for (int y = 0; y < m.height(); ++y)
+    for (int x = 0; x < m.width(); ++x) m(x, y) += static_cast<float>(0.6 * x + 0.4 * y);
+  c.master = diachron::Dsm(m, c.master.transform());
+  diachron::DsmCorrelationSearchOptions o;
+  o.signal = diachron::CorrelationSignal::gradient;
+  const diachron::DsmCorrelationResult r = diachron::dsm_correlation_search(c.master, c.secondary, o);
+  INFO(r.message);
+  REQUIRE(r.success);
+  CHECK(r.scale == Approx(1.4).epsilon(0.03));
+  CHECK(std::abs(std::remainder(r.angle - c.angle, 2.0 * diachron::kPi)) < diachron::deg_to_rad(2.0));
+  CHECK(max_error_px(c, r) < 2.0);
+  CHECK(r.score > 0.95);
+  // The heights themselves carry the tilt's plane and do not find this master.
+  const diachron::DsmCorrelationResult h = diachron::dsm_correlation_search(c.master, c.secondary);
+  INFO("heights: " << h.message);
+  CHECK_FALSE((h.success && max_error_px(c, h) < 2.0));
+}

@@ -98,3 +98,92 @@ TEST_CASE("MaskedNcc: bad input throws diachron::Error", "[terrain]") {
   CHECK_THROWS_AS(ncc.correlate(random_raster(5, 4, 2, 0.0), 1, 0.0), diachron::Error);
   CHECK_THROWS_AS(ncc.correlate(random_raster(4, 4, 2, 0.0), 0, 0.0), diachron::Error);
 }
+
+namespace {
+
+// The two-channel ZNCC written out: the pixel pairs of the overlap, each channel centred on its own
+// mean there, laid end to end.
+double two_channel_oracle(const std::vector<diachron::Raster<float>>& f, const std::vector<diachron::Raster<float>>& g,
+                          int dx, int dy) {
+  double cov = 0.0, vf = 0.0, vg = 0.0;
+  for (std::size_t c = 0; c < f.size(); ++c) {
+    std::vector<double> a, b;
+    for (int y = 0; y < g[c].height(); ++y)
+      for (int x = 0; x < g[c].width(); ++x) {
+        if (!f[c].contains(x + dx, y + dy)) continue;
+        const float fv = f[c](x + dx, y + dy), gv = g[c](x, y);
+        if (std::isnan(fv) || std::isnan(gv)) continue;
+        a.push_back(fv);
+        b.push_back(gv);
+      }
+    double ma = 0.0, mb = 0.0;
+    for (std::size_t i = 0; i < a.size(); ++i) {
+      ma += a[i] / static_cast<double>(a.size());
+      mb += b[i] / static_cast<double>(b.size());
+    }
+    for (std::size_t i = 0; i < a.size(); ++i) {
+      cov += (a[i] - ma) * (b[i] - mb);
+      vf += (a[i] - ma) * (a[i] - ma);
+      vg += (b[i] - mb) * (b[i] - mb);
+    }
+  }
+  return cov / std::sqrt(vf * vg);
+}
+
+// A second channel with the holes of the first.
+diachron::Raster<float> with_holes_of(const diachron::Raster<float>& holes, std::uint64_t seed) {
+  diachron::Raster<float> r = random_raster(holes.width(), holes.height(), seed, 0.0);
+  for (int y = 0; y < r.height(); ++y)
+    for (int x = 0; x < r.width(); ++x)
+      if (std::isnan(holes(x, y))) r(x, y) = std::numeric_limits<float>::quiet_NaN();
+  return r;
+}
+
+}  // namespace
+
+TEST_CASE("MaskedNcc: two channels equal the written-out sum, each channel centred on its own mean", "[terrain]") {
+  const diachron::Raster<float> f0 = random_raster(21, 15, 11, 0.2), g0 = random_raster(8, 10, 12, 0.2);
+  // The second channels sit on another level: a shared mean would mix the two.
+  diachron::Raster<float> f1 = with_holes_of(f0, 13), g1 = with_holes_of(g0, 14);
+  for (float& v : f1) v -= 5000.0f;
+  for (float& v : g1) v *= 0.01f;
+  const std::vector<diachron::Raster<float>> fixed{f0, f1}, moving{g0, g1};
+  diachron::MaskedNcc ncc(fixed, 8, 10);
+  CHECK(ncc.channels() == 2);
+  const diachron::MaskedNccMap map = ncc.correlate(moving, 5, 1e-9);
+  int compared = 0;
+  for (const auto& d : std::vector<std::pair<int, int>>{{0, 0}, {3, 2}, {-4, -6}, {12, 4}, {18, 12}, {-7, -9}, {9, 0}}) {
+    const double oracle = two_channel_oracle(fixed, moving, d.first, d.second);
+    const double direct = diachron::masked_ncc_at(fixed, moving, d.first, d.second, 5, 1e-9);
+    const double fast = map.score(d.first - map.min_dx, d.second - map.min_dy);
+    if (std::isnan(direct)) {
+      CHECK(std::isnan(fast));
+      continue;
+    }
+    CHECK(direct == Approx(oracle).margin(1e-9));
+    CHECK(fast == Approx(oracle).margin(1e-5));
+    ++compared;
+  }
+  CHECK(compared >= 5);
+  // One channel through the vector interface is the single-raster correlation.
+  diachron::MaskedNcc one({f0}, 8, 10), plain(f0, 8, 10);
+  const diachron::MaskedNccMap a = one.correlate(std::vector<diachron::Raster<float>>{g0}, 5, 1e-9);
+  const diachron::MaskedNccMap b = plain.correlate(g0, 5, 1e-9);
+  for (int y = 0; y < a.score.height(); ++y)
+    for (int x = 0; x < a.score.width(); ++x)
+      CHECK((a.score(x, y) == b.score(x, y) || (std::isnan(a.score(x, y)) && std::isnan(b.score(x, y)))));
+}
+
+TEST_CASE("MaskedNcc: channels of another size or with other holes throw diachron::Error", "[terrain]") {
+  const diachron::Raster<float> f0 = random_raster(10, 10, 1, 0.2);
+  CHECK_THROWS_AS(diachron::MaskedNcc(std::vector<diachron::Raster<float>>{f0, random_raster(9, 10, 2, 0.0)}, 4, 4),
+                  diachron::Error);
+  CHECK_THROWS_AS(diachron::MaskedNcc(std::vector<diachron::Raster<float>>{f0, random_raster(10, 10, 2, 0.0)}, 4, 4),
+                  diachron::Error);
+  CHECK_THROWS_AS(diachron::MaskedNcc(std::vector<diachron::Raster<float>>{}, 4, 4), diachron::Error);
+  diachron::MaskedNcc ncc(std::vector<diachron::Raster<float>>{f0, with_holes_of(f0, 3)}, 4, 4);
+  const diachron::Raster<float> g = random_raster(4, 4, 5, 0.0);
+  CHECK_THROWS_AS(ncc.correlate(g, 1, 0.0), diachron::Error);  // one channel against two
+  CHECK_THROWS_AS(diachron::masked_ncc_at(std::vector<diachron::Raster<float>>{f0}, std::vector<diachron::Raster<float>>{g, g}, 0, 0, 1, 0.0),
+                  diachron::Error);
+}

@@ -9,6 +9,8 @@
 /// winner must stand out from the hypotheses that map the master elsewhere, otherwise there is no
 /// answer. For DSMs with too little texture for feature matchers (a coarse DSM of 20 x 30 cells);
 /// ZNCC is blind to the gain and offset of heights, hence to the frames' height scale and datum.
+/// With CorrelationSignal::gradient it correlates the heights' gradient instead (two channels), which
+/// is also blind to a tilt between the frames.
 ///
 /// Conventions: pixel coordinates are pixel centres (diachron's convention); the result maps master
 /// DSM pixels to secondary DSM pixels, p_s = scale R(angle) D p_m + translation, with D = diag(1, -1)
@@ -34,6 +36,17 @@
 
 namespace diachron {
 
+/// What dsm_correlation_search() correlates.
+enum class CorrelationSignal {
+  /// The heights themselves: the whole relief, blind to gain and offset.
+  heights,
+  /// The heights' gradient (two channels, central differences on the working raster, correlated as
+  /// one signal by MaskedNcc): blind also to a tilt between the frames, and local, so that ground
+  /// that changed between the epochs (a lava dome, a glacier) only spoils its own cells instead of
+  /// moving the whole correlation, as a change of heights over a third of the overlap does.
+  gradient,
+};
+
 /// Options of dsm_correlation_search(). Sizes in working-raster pixels, angles in degrees.
 struct DsmCorrelationSearchOptions {
   /// The frames' unknown scale (secondary units per master unit) is searched in [1/this, this]:
@@ -57,6 +70,8 @@ struct DsmCorrelationSearchOptions {
   /// around the evaluation's holes left a few percent of a coarse window, and on the gap-8 cases the
   /// true placement scored higher with raw heights (ZNCC 0.96-0.99) than high-passed (0.11-0.96).
   double high_pass_fraction = 0.0;
+  /// Heights or their gradient (see CorrelationSignal).
+  CorrelationSignal signal = CorrelationSignal::heights;
   /// Coarse hypotheses refined at the finer levels (the best, each from a different place).
   int candidates = 4;
   /// A shift counts only where the overlap holds at least this fraction of the smaller raster's
@@ -277,6 +292,21 @@ inline void subtract_local_mean(Raster<float>& r, double half) {
   r = std::move(out);
 }
 
+/// The two components of the gradient of a working raster (central differences, raster units per
+/// pixel); a pixel is a hole in both unless it and its four neighbours are valid.
+inline std::vector<Raster<float>> gradient_channels(const Raster<float>& r) {
+  constexpr float nan = std::numeric_limits<float>::quiet_NaN();
+  std::vector<Raster<float>> out{Raster<float>(r.width(), r.height(), nan), Raster<float>(r.width(), r.height(), nan)};
+  for (int y = 1; y + 1 < r.height(); ++y)
+    for (int x = 1; x + 1 < r.width(); ++x) {
+      const float gx = 0.5f * (r(x + 1, y) - r(x - 1, y)), gy = 0.5f * (r(x, y + 1) - r(x, y - 1));
+      if (std::isnan(r(x, y)) || std::isnan(gx) || std::isnan(gy)) continue;
+      out[0](x, y) = gx;
+      out[1](x, y) = gy;
+    }
+  return out;
+}
+
 inline std::size_t count_valid(const Raster<float>& r) {
   std::size_t n = 0;
   for (float v : r) n += !std::isnan(v);
@@ -293,23 +323,28 @@ inline double correlation_strength(double zncc, double overlap, double smaller_v
   return std::atanh(r) * std::sqrt(std::min(1.0, overlap / std::max(smaller_valid, 1.0)));
 }
 
-/// Least-squares gain of `fixed` on `moving` over their overlap at shift (dx, dy): cov / var(moving).
-/// NaN without overlap or variance.
-inline double regression_gain(const Raster<float>& fixed, const Raster<float>& moving, int dx, int dy) {
-  double n = 0.0, sf = 0.0, sg = 0.0, sgg = 0.0, sfg = 0.0;
-  for (int y = std::max(0, -dy); y < std::min(moving.height(), fixed.height() - dy); ++y)
-    for (int x = std::max(0, -dx); x < std::min(moving.width(), fixed.width() - dx); ++x) {
-      const double g = moving(x, y), f = fixed(x + dx, y + dy);
-      if (std::isnan(g) || std::isnan(f)) continue;
-      n += 1.0;
-      sf += f;
-      sg += g;
-      sgg += g * g;
-      sfg += f * g;
-    }
-  if (n < 2.0) return std::numeric_limits<double>::quiet_NaN();
-  const double vg = sgg - sg * sg / n;
-  return vg > 0.0 ? (sfg - sf * sg / n) / vg : std::numeric_limits<double>::quiet_NaN();
+/// Least-squares gain of `fixed` on `moving` over their overlap at shift (dx, dy): cov / var(moving),
+/// summed over the channels of a signal, each centred on its own mean. NaN without overlap or variance.
+inline double regression_gain(const std::vector<Raster<float>>& fixed, const std::vector<Raster<float>>& moving, int dx,
+                              int dy) {
+  double cov = 0.0, var = 0.0;
+  for (std::size_t c = 0; c < fixed.size() && c < moving.size(); ++c) {
+    double n = 0.0, sf = 0.0, sg = 0.0, sgg = 0.0, sfg = 0.0;
+    for (int y = std::max(0, -dy); y < std::min(moving[c].height(), fixed[c].height() - dy); ++y)
+      for (int x = std::max(0, -dx); x < std::min(moving[c].width(), fixed[c].width() - dx); ++x) {
+        const double g = moving[c](x, y), f = fixed[c](x + dx, y + dy);
+        if (std::isnan(g) || std::isnan(f)) continue;
+        n += 1.0;
+        sf += f;
+        sg += g;
+        sgg += g * g;
+        sfg += f * g;
+      }
+    if (n < 2.0) return std::numeric_limits<double>::quiet_NaN();
+    cov += sfg - sf * sg / n;
+    var += sgg - sg * sg / n;
+  }
+  return var > 0.0 ? cov / var : std::numeric_limits<double>::quiet_NaN();
 }
 
 /// Sub-pixel offset of a peak from three samples (parabola through them), within [-0.5, 0.5].
@@ -361,24 +396,30 @@ inline DsmCorrelationResult dsm_correlation_search(const Dsm& master, const Dsm&
     const double m_short = std::min(mw, mh) * ratio, s_short = std::min(sw, sh);
     return 0.5 * options.high_pass_fraction * std::min(m_short, s_short) / g;
   };
+  // A working raster as the signal correlated (see CorrelationSignal).
+  const auto signal_of = [&](Raster<float> r) {
+    if (options.signal == CorrelationSignal::gradient) return detail::gradient_channels(r);
+    return std::vector<Raster<float>>{std::move(r)};
+  };
   const auto working_fixed = [&](double ratio, double g) {
     Raster<float> fixed = detail::make_fixed(secondary_sampler, sw, sh, g);
     if (options.high_pass_fraction > 0.0) detail::subtract_local_mean(fixed, high_pass_half(ratio, g));
-    return fixed;
+    return signal_of(std::move(fixed));
   };
 
   // Correlates one hypothesis at cell g: over every shift by FFT (`ncc`), or, with `predicted`,
   // directly at the shifts within `radius` working pixels of it (refinement: a few dozen shifts
   // cost less than the FFTs, and the peak cannot jump to another place).
   std::size_t hypotheses = 0;
-  const auto correlate = [&](MaskedNcc* ncc, const Raster<float>& fixed, std::size_t fixed_valid,
+  const auto correlate = [&](MaskedNcc* ncc, const std::vector<Raster<float>>& fixed, std::size_t fixed_valid,
                              detail::CorrelationHypothesis& h, double g, const Eigen::Vector2d* predicted,
                              int radius) {
     ++hypotheses;
     Eigen::Vector2d origin;
-    Raster<float> t = detail::make_template(master_sampler, mw, mh, h.ratio, h.angle, result.mirrored, g, origin);
-    if (options.high_pass_fraction > 0.0) detail::subtract_local_mean(t, high_pass_half(h.ratio, g));
-    const std::size_t t_valid = detail::count_valid(t);
+    Raster<float> heights = detail::make_template(master_sampler, mw, mh, h.ratio, h.angle, result.mirrored, g, origin);
+    if (options.high_pass_fraction > 0.0) detail::subtract_local_mean(heights, high_pass_half(h.ratio, g));
+    const std::vector<Raster<float>> t = signal_of(std::move(heights));
+    const std::size_t t_valid = detail::count_valid(t[0]);
     const int min_overlap = std::max(options.min_overlap_px,
                                      static_cast<int>(std::ceil(options.min_overlap_fraction *
                                                                 static_cast<double>(std::min(t_valid, fixed_valid)))));
@@ -467,8 +508,8 @@ inline DsmCorrelationResult dsm_correlation_search(const Dsm& master, const Dsm&
     const double ratio = r0 * std::pow(step, si);
     double g = 0.0, finest = 0.0;
     cells(ratio, g, finest);
-    const Raster<float> fixed = working_fixed(ratio, g);
-    const std::size_t fixed_valid = detail::count_valid(fixed);
+    const std::vector<Raster<float>> fixed = working_fixed(ratio, g);
+    const std::size_t fixed_valid = detail::count_valid(fixed[0]);
     if (fixed_valid < 4) continue;
     // Any rotation of the template fits in a square of the master's diagonal.
     const int diag = static_cast<int>(std::ceil(std::hypot(mw, mh) * ratio / g)) + 3;
@@ -538,8 +579,8 @@ inline DsmCorrelationResult dsm_correlation_search(const Dsm& master, const Dsm&
     ++tr.level;
     const double g = tr.g;
     detail::CorrelationHypothesis& h = tr.h;
-    const Raster<float> fixed = working_fixed(h.ratio, g);
-    const std::size_t fixed_valid = detail::count_valid(fixed);
+    const std::vector<Raster<float>> fixed = working_fixed(h.ratio, g);
+    const std::size_t fixed_valid = detail::count_valid(fixed[0]);
     const int radius = 3;
     for (int param = 0; param < 2; ++param) {
       detail::CorrelationHypothesis best = h;
@@ -620,9 +661,11 @@ inline DsmCorrelationResult dsm_correlation_search(const Dsm& master, const Dsm&
   {
     const Track& tr = tracks[win];
     Eigen::Vector2d origin;
-    Raster<float> t = detail::make_template(master_sampler, mw, mh, w.ratio, w.angle, result.mirrored, tr.g, origin);
-    Raster<float> fixed = detail::make_fixed(secondary_sampler, sw, sh, tr.g);
-    // Raw heights (no high-pass): the gain of the whole relief, tilt aside.
+    // Raw heights (no high-pass): the gain of the whole relief; through the gradient when that is the
+    // signal, so that a tilt between the frames does not enter the gain either.
+    const std::vector<Raster<float>> t =
+        signal_of(detail::make_template(master_sampler, mw, mh, w.ratio, w.angle, result.mirrored, tr.g, origin));
+    const std::vector<Raster<float>> fixed = signal_of(detail::make_fixed(secondary_sampler, sw, sh, tr.g));
     const Eigen::Vector2d d = (w.translation - Eigen::Vector2d::Constant(0.5 * (tr.g - 1.0))) / tr.g + origin;
     result.height_gain = detail::regression_gain(fixed, t, static_cast<int>(std::lround(d.x())),
                                                  static_cast<int>(std::lround(d.y())));
