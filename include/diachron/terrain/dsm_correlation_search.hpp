@@ -329,20 +329,10 @@ inline double regression_gain(const std::vector<Raster<float>>& fixed, const std
                               int dy) {
   double cov = 0.0, var = 0.0;
   for (std::size_t c = 0; c < fixed.size() && c < moving.size(); ++c) {
-    double n = 0.0, sf = 0.0, sg = 0.0, sgg = 0.0, sfg = 0.0;
-    for (int y = std::max(0, -dy); y < std::min(moving[c].height(), fixed[c].height() - dy); ++y)
-      for (int x = std::max(0, -dx); x < std::min(moving[c].width(), fixed[c].width() - dx); ++x) {
-        const double g = moving[c](x, y), f = fixed[c](x + dx, y + dy);
-        if (std::isnan(g) || std::isnan(f)) continue;
-        n += 1.0;
-        sf += f;
-        sg += g;
-        sgg += g * g;
-        sfg += f * g;
-      }
-    if (n < 2.0) return std::numeric_limits<double>::quiet_NaN();
-    cov += sfg - sf * sg / n;
-    var += sgg - sg * sg / n;
+    const OverlapMoments m = overlap_moments(fixed[c], moving[c], dx, dy);
+    if (m.n < 2.0) return std::numeric_limits<double>::quiet_NaN();
+    cov += m.sfg - m.sf * m.sg / m.n;
+    var += m.sgg - m.sg * m.sg / m.n;
   }
   return var > 0.0 ? cov / var : std::numeric_limits<double>::quiet_NaN();
 }

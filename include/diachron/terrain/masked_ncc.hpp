@@ -76,12 +76,15 @@ class MaskedNcc {
                    "masked NCC needs positive moving sizes, got " << max_moving_width << " x " << max_moving_height);
     max_moving_width_ = max_moving_width;
     max_moving_height_ = max_moving_height;
-    std::vector<std::vector<Complex>> spectra = forward_real(planes_of(fixed));
-    m_ = std::move(spectra.back());
-    spectra.pop_back();
-    f2_ = std::move(spectra.back());
-    spectra.pop_back();
-    f1_ = std::move(spectra);
+    const std::vector<std::vector<Complex>> z = transformed_planes(fixed);
+    f1_.assign(channels_, std::vector<Complex>(fft_.size()));
+    f2_.resize(fft_.size());
+    m_.resize(fft_.size());
+    for_each_frequency([&](std::size_t k, std::size_t mk) {
+      for (std::size_t c = 0; c < channels_; ++c) f1_[c][k] = unpack(z, c, k, mk);
+      f2_[k] = unpack(z, channels_, k, mk);
+      m_[k] = unpack(z, channels_ + 1, k, mk);
+    });
   }
 
   int fft_width() const { return fft_.width(); }
@@ -105,31 +108,37 @@ class MaskedNcc {
                    "masked NCC: moving raster " << mw << " x " << mh << " exceeds the bound "
                                                 << max_moving_width_ << " x " << max_moving_height_);
     DIACHRON_CHECK(min_overlap >= 1 && min_variance >= 0.0, "masked NCC needs min_overlap >= 1 and min_variance >= 0");
-    const std::vector<std::vector<Complex>> g = forward_real(planes_of(moving));
-    const std::vector<Complex>& gm = g[channels_ + 1];
-    const std::vector<Complex>& g2 = g[channels_];
+    const std::vector<std::vector<Complex>> g = transformed_planes(moving);
     // Products written out: std::complex's operator* checks for infinities and NaNs on every call
     // (C99 Annex G), which costs more than the FFTs here, and these values are always finite.
     const auto mul_conj = [](const Complex& x, const Complex& y) {  // x conj(y)
       return Complex(x.real() * y.real() + x.imag() * y.imag(), x.imag() * y.real() - x.real() * y.imag());
     };
-    // The correlations, as spectra: count, sum of fixed squares, sum of moving squares, cross sum
-    // (over the channels: the spectra add), then per channel the sums of fixed and of moving.
-    const std::size_t n_out = 4 + 2 * channels_;
-    std::vector<std::vector<Complex>> out(n_out, std::vector<Complex>(fft_.size()));
-    for (std::size_t k = 0; k < fft_.size(); ++k) {
-      out[0][k] = mul_conj(m_[k], gm[k]);
-      out[1][k] = mul_conj(f2_[k], gm[k]);
-      out[2][k] = mul_conj(m_[k], g2[k]);
+    // The correlations, as spectra: 0 count, 1 sum of fixed squares, 2 sum of moving squares,
+    // 3 cross sum (over the channels: the spectra add), then per channel the sums of fixed and of
+    // moving. Each is real, so two share an inverse FFT: correlation j goes into buffer j / 2, in
+    // the real part when j is even, else in the imaginary part (i times a Hermitian spectrum).
+    std::vector<std::vector<Complex>> out((5 + 2 * channels_) / 2, std::vector<Complex>(fft_.size()));
+    const auto put = [&](std::size_t j, std::size_t k, const Complex& v) {
+      Complex& o = out[j / 2][k];
+      o = j % 2 ? Complex(o.real() - v.imag(), o.imag() + v.real()) : Complex(o.real() + v.real(), o.imag() + v.imag());
+    };
+    for_each_frequency([&](std::size_t k, std::size_t mk) {
+      const Complex gm = unpack(g, channels_ + 1, k, mk);
+      put(0, k, mul_conj(m_[k], gm));
+      put(1, k, mul_conj(f2_[k], gm));
+      put(2, k, mul_conj(m_[k], unpack(g, channels_, k, mk)));
       Complex cross(0.0, 0.0);
       for (std::size_t c = 0; c < channels_; ++c) {
-        cross += mul_conj(f1_[c][k], g[c][k]);
-        out[4 + 2 * c][k] = mul_conj(f1_[c][k], gm[k]);
-        out[5 + 2 * c][k] = mul_conj(m_[k], g[c][k]);
+        const Complex gc = unpack(g, c, k, mk);
+        cross += mul_conj(f1_[c][k], gc);
+        put(4 + 2 * c, k, mul_conj(f1_[c][k], gm));
+        put(5 + 2 * c, k, mul_conj(m_[k], gc));
       }
-      out[3][k] = cross;
-    }
-    const std::vector<std::vector<double>> sums = inverse_real(out);
+      put(3, k, cross);
+    });
+    for (std::vector<Complex>& b : out) fft_.inverse(b);
+    const auto sum = [&](std::size_t j, std::size_t k) { return j % 2 ? out[j / 2][k].imag() : out[j / 2][k].real(); };
     MaskedNccMap result;
     result.min_dx = -(mw - 1);
     result.min_dy = -(mh - 1);
@@ -142,12 +151,12 @@ class MaskedNcc {
         const int dx = x + result.min_dx, dy = y + result.min_dy;
         const int ix = (dx + fft_.width()) % fft_.width(), iy = (dy + fft_.height()) % fft_.height();
         const std::size_t k = static_cast<std::size_t>(iy) * fft_.width() + ix;
-        const double n = std::round(sums[0][k]);
+        const double n = std::round(sum(0, k));
         result.overlap(x, y) = static_cast<int>(n);
         if (n < min_overlap) continue;
-        double vf = sums[1][k], vg = sums[2][k], cov = sums[3][k];
+        double vf = sum(1, k), vg = sum(2, k), cov = sum(3, k);
         for (std::size_t c = 0; c < channels_; ++c) {
-          const double sf = sums[4 + 2 * c][k], sg = sums[5 + 2 * c][k];
+          const double sf = sum(4 + 2 * c, k), sg = sum(5 + 2 * c, k);
           vf -= sf * sf / n;
           vg -= sg * sg / n;
           cov -= sf * sg / n;
@@ -170,26 +179,6 @@ class MaskedNcc {
     return n ? sum / static_cast<double>(n) : 0.0;
   }
 
-  // The real planes a signal contributes, zero-padded to the FFT size: each channel centred on its
-  // mean, then the sum of their squares, then the mask.
-  std::vector<std::vector<double>> planes_of(const std::vector<Raster<float>>& signal) const {
-    std::vector<std::vector<double>> planes(channels_ + 2, std::vector<double>(fft_.size(), 0.0));
-    for (std::size_t c = 0; c < channels_; ++c) {
-      const double mean = valid_mean(signal[c]);
-      for (int y = 0; y < signal[c].height(); ++y)
-        for (int x = 0; x < signal[c].width(); ++x) {
-          const float v = signal[c](x, y);
-          if (std::isnan(v)) continue;
-          const double d = v - mean;
-          const std::size_t i = static_cast<std::size_t>(y) * fft_.width() + x;
-          planes[c][i] = d;
-          planes[channels_][i] += d * d;
-          planes[channels_ + 1][i] = 1.0;
-        }
-    }
-    return planes;
-  }
-
   static void check_channels(const std::vector<Raster<float>>& r, const char* which) {
     DIACHRON_CHECK(!r.empty() && !r[0].empty(), "masked NCC needs a non-empty " << which << " raster");
     for (std::size_t c = 1; c < r.size(); ++c) {
@@ -202,61 +191,93 @@ class MaskedNcc {
     }
   }
 
-  // Spectra of real planes, two per complex FFT (one in the imaginary part), separated by the
-  // symmetry of real spectra: X[k] = (Z[k] + conj Z[-k]) / 2, Y[k] = (Z[k] - conj Z[-k]) / 2i.
-  std::vector<std::vector<Complex>> forward_real(const std::vector<std::vector<double>>& planes) {
-    std::vector<std::vector<Complex>> out(planes.size());
-    const int fw = fft_.width(), fh = fft_.height();
-    for (std::size_t p = 0; p < planes.size(); p += 2) {
-      const bool pair = p + 1 < planes.size();
-      std::vector<Complex> z(fft_.size());
-      for (std::size_t i = 0; i < z.size(); ++i) z[i] = Complex(planes[p][i], pair ? planes[p + 1][i] : 0.0);
-      fft_.forward(z);
-      if (!pair) {
-        out[p] = std::move(z);
-        continue;
-      }
-      out[p].resize(z.size());
-      out[p + 1].resize(z.size());
-      for (int ky = 0; ky < fh; ++ky)
-        for (int kx = 0; kx < fw; ++kx) {
-          const std::size_t k = static_cast<std::size_t>(ky) * fw + kx;
-          const std::size_t mk = static_cast<std::size_t>((fh - ky) % fh) * fw + static_cast<std::size_t>((fw - kx) % fw);
-          const Complex a = z[k], b = std::conj(z[mk]);
-          out[p][k] = Complex(0.5 * (a.real() + b.real()), 0.5 * (a.imag() + b.imag()));
-          out[p + 1][k] = Complex(0.5 * (a.imag() - b.imag()), -0.5 * (a.real() - b.real()));
+  // The real planes of a signal, zero-padded to the FFT size and transformed two to a complex FFT:
+  // plane p lies in buffer p / 2, in the real part when p is even, else in the imaginary part (see
+  // unpack). Planes: each channel centred on its mean, then the sum of their squares, then the mask.
+  std::vector<std::vector<Complex>> transformed_planes(const std::vector<Raster<float>>& signal) {
+    std::vector<std::vector<Complex>> z((channels_ + 3) / 2, std::vector<Complex>(fft_.size()));
+    const auto add = [&](std::size_t p, std::size_t i, double v) {
+      Complex& c = z[p / 2][i];
+      c = p % 2 ? Complex(c.real(), c.imag() + v) : Complex(c.real() + v, c.imag());
+    };
+    for (std::size_t c = 0; c < channels_; ++c) {
+      const double mean = valid_mean(signal[c]);
+      for (int y = 0; y < signal[c].height(); ++y)
+        for (int x = 0; x < signal[c].width(); ++x) {
+          const float v = signal[c](x, y);
+          if (std::isnan(v)) continue;
+          const double d = v - mean;
+          const std::size_t i = static_cast<std::size_t>(y) * fft_.width() + x;
+          add(c, i, d);
+          add(channels_, i, d * d);
+          if (c == 0) add(channels_ + 1, i, 1.0);
         }
     }
-    return out;
+    for (std::vector<Complex>& b : z) fft_.forward(b);
+    return z;
   }
 
-  // Real correlations from their spectra, two per inverse FFT: each is real, so one goes in the
-  // real part and one in the imaginary part (i times a Hermitian spectrum).
-  std::vector<std::vector<double>> inverse_real(std::vector<std::vector<Complex>>& spectra) {
-    std::vector<std::vector<double>> out(spectra.size(), std::vector<double>(fft_.size()));
-    for (std::size_t p = 0; p < spectra.size(); p += 2) {
-      std::vector<Complex>& z = spectra[p];
-      if (p + 1 < spectra.size())
-        for (std::size_t k = 0; k < z.size(); ++k) {
-          const Complex y = spectra[p + 1][k];
-          z[k] = Complex(z[k].real() - y.imag(), z[k].imag() + y.real());  // x + i y
-        }
-      fft_.inverse(z);
-      for (std::size_t k = 0; k < z.size(); ++k) {
-        out[p][k] = z[k].real();
-        if (p + 1 < spectra.size()) out[p + 1][k] = z[k].imag();
-      }
-    }
-    return out;
+  // Calls f(k, mk) for every frequency index k, with mk the index of -k.
+  template <class F>
+  void for_each_frequency(F&& f) const {
+    const int fw = fft_.width(), fh = fft_.height();
+    for (int ky = 0; ky < fh; ++ky)
+      for (int kx = 0; kx < fw; ++kx)
+        f(static_cast<std::size_t>(ky) * fw + kx,
+          static_cast<std::size_t>((fh - ky) % fh) * fw + static_cast<std::size_t>((fw - kx) % fw));
+  }
+
+  // The spectrum of real plane p at k, separated from the shared transform Z by the symmetry of real
+  // spectra: X[k] = (Z[k] + conj Z[-k]) / 2 for the real part's plane, Y[k] = (Z[k] - conj Z[-k]) / 2i
+  // for the imaginary part's.
+  static Complex unpack(const std::vector<std::vector<Complex>>& z, std::size_t p, std::size_t k, std::size_t mk) {
+    const Complex a = z[p / 2][k], b = std::conj(z[p / 2][mk]);
+    if (p % 2 == 0) return Complex(0.5 * (a.real() + b.real()), 0.5 * (a.imag() + b.imag()));
+    return Complex(0.5 * (a.imag() - b.imag()), -0.5 * (a.real() - b.real()));
   }
 
   std::size_t channels_;
   int fixed_width_, fixed_height_;
   int max_moving_width_ = 0, max_moving_height_ = 0;
   Fft2 fft_;
-  std::vector<std::vector<Complex>> f1_;
-  std::vector<Complex> f2_, m_;
+  std::vector<std::vector<Complex>> f1_;  ///< per channel: the centred values' spectrum
+  std::vector<Complex> f2_, m_;           ///< the sum of squares' and the mask's spectra
 };
+
+namespace detail {
+
+/// Sums over the pixel pairs of one channel's overlap at a shift (moving pixel q on fixed pixel q + d).
+struct OverlapMoments {
+  double n = 0.0, sf = 0.0, sg = 0.0, sff = 0.0, sgg = 0.0, sfg = 0.0;
+};
+
+inline OverlapMoments overlap_moments(const Raster<float>& fixed, const Raster<float>& moving, int dx, int dy) {
+  OverlapMoments m;
+  const int y0 = std::max(0, -dy), y1 = std::min(moving.height(), fixed.height() - dy);
+  const int x0 = std::max(0, -dx), x1 = std::min(moving.width(), fixed.width() - dx);
+  for (int y = y0; y < y1; ++y)
+    for (int x = x0; x < x1; ++x) {
+      const float g = moving(x, y), f = fixed(x + dx, y + dy);
+      if (std::isnan(g) || std::isnan(f)) continue;
+      m.n += 1.0;
+      m.sf += f;
+      m.sg += g;
+      m.sff += static_cast<double>(f) * f;
+      m.sgg += static_cast<double>(g) * g;
+      m.sfg += static_cast<double>(f) * g;
+    }
+  return m;
+}
+
+/// ZNCC from the summed centred moments (variances and covariance over all channels), NaN under
+/// the rules of MaskedNccMap::score.
+inline double zncc_from_moments(double n, double vf, double vg, double cov, int min_overlap, double min_variance) {
+  if (n < min_overlap || n < 1.0) return std::numeric_limits<double>::quiet_NaN();
+  if (vf <= min_variance * n || vg <= min_variance * n) return std::numeric_limits<double>::quiet_NaN();
+  return std::clamp(cov / std::sqrt(vf * vg), -1.0, 1.0);
+}
+
+}  // namespace detail
 
 /// ZNCC of `moving` against `fixed` at one integer shift (moving pixel q on fixed pixel q + (dx, dy)),
 /// summed directly over the overlap: the reference for MaskedNcc, and cheaper than an FFT when only
@@ -264,25 +285,11 @@ class MaskedNcc {
 /// receives the number of valid pixel pairs.
 inline double masked_ncc_at(const Raster<float>& fixed, const Raster<float>& moving, int dx, int dy,
                             int min_overlap, double min_variance, int* overlap = nullptr) {
-  double n = 0.0, sf = 0.0, sg = 0.0, sff = 0.0, sgg = 0.0, sfg = 0.0;
-  const int y0 = std::max(0, -dy), y1 = std::min(moving.height(), fixed.height() - dy);
-  const int x0 = std::max(0, -dx), x1 = std::min(moving.width(), fixed.width() - dx);
-  for (int y = y0; y < y1; ++y)
-    for (int x = x0; x < x1; ++x) {
-      const float g = moving(x, y), f = fixed(x + dx, y + dy);
-      if (std::isnan(g) || std::isnan(f)) continue;
-      n += 1.0;
-      sf += f;
-      sg += g;
-      sff += static_cast<double>(f) * f;
-      sgg += static_cast<double>(g) * g;
-      sfg += static_cast<double>(f) * g;
-    }
-  if (overlap) *overlap = static_cast<int>(n);
-  if (n < min_overlap || n < 1.0) return std::numeric_limits<double>::quiet_NaN();
-  const double vf = sff - sf * sf / n, vg = sgg - sg * sg / n;
-  if (vf <= min_variance * n || vg <= min_variance * n) return std::numeric_limits<double>::quiet_NaN();
-  return std::clamp((sfg - sf * sg / n) / std::sqrt(vf * vg), -1.0, 1.0);
+  const detail::OverlapMoments m = detail::overlap_moments(fixed, moving, dx, dy);
+  if (overlap) *overlap = static_cast<int>(m.n);
+  if (m.n < 1.0) return std::numeric_limits<double>::quiet_NaN();
+  return detail::zncc_from_moments(m.n, m.sff - m.sf * m.sf / m.n, m.sgg - m.sg * m.sg / m.n, m.sfg - m.sf * m.sg / m.n,
+                                   min_overlap, min_variance);
 }
 
 /// masked_ncc_at() for a signal of several channels (same sizes and holes in each), as
@@ -290,35 +297,17 @@ inline double masked_ncc_at(const Raster<float>& fixed, const Raster<float>& mov
 inline double masked_ncc_at(const std::vector<Raster<float>>& fixed, const std::vector<Raster<float>>& moving, int dx,
                             int dy, int min_overlap, double min_variance, int* overlap = nullptr) {
   DIACHRON_CHECK(!fixed.empty() && fixed.size() == moving.size(), "masked_ncc_at: the signals differ in channels");
-  if (fixed.size() == 1) return masked_ncc_at(fixed[0], moving[0], dx, dy, min_overlap, min_variance, overlap);
-  const Raster<float>& f0 = fixed[0];
-  const Raster<float>& g0 = moving[0];
   double n = 0.0, vf = 0.0, vg = 0.0, cov = 0.0;
-  const int y0 = std::max(0, -dy), y1 = std::min(g0.height(), f0.height() - dy);
-  const int x0 = std::max(0, -dx), x1 = std::min(g0.width(), f0.width() - dx);
   for (std::size_t c = 0; c < fixed.size(); ++c) {
-    double cn = 0.0, sf = 0.0, sg = 0.0, sff = 0.0, sgg = 0.0, sfg = 0.0;
-    for (int y = y0; y < y1; ++y)
-      for (int x = x0; x < x1; ++x) {
-        const float g = moving[c](x, y), f = fixed[c](x + dx, y + dy);
-        if (std::isnan(g) || std::isnan(f)) continue;
-        cn += 1.0;
-        sf += f;
-        sg += g;
-        sff += static_cast<double>(f) * f;
-        sgg += static_cast<double>(g) * g;
-        sfg += static_cast<double>(f) * g;
-      }
-    n = cn;
-    if (cn < 1.0) break;
-    vf += sff - sf * sf / cn;
-    vg += sgg - sg * sg / cn;
-    cov += sfg - sf * sg / cn;
+    const detail::OverlapMoments m = detail::overlap_moments(fixed[c], moving[c], dx, dy);
+    n = m.n;
+    if (m.n < 1.0) break;
+    vf += m.sff - m.sf * m.sf / m.n;
+    vg += m.sgg - m.sg * m.sg / m.n;
+    cov += m.sfg - m.sf * m.sg / m.n;
   }
   if (overlap) *overlap = static_cast<int>(n);
-  if (n < min_overlap || n < 1.0) return std::numeric_limits<double>::quiet_NaN();
-  if (vf <= min_variance * n || vg <= min_variance * n) return std::numeric_limits<double>::quiet_NaN();
-  return std::clamp(cov / std::sqrt(vf * vg), -1.0, 1.0);
+  return detail::zncc_from_moments(n, vf, vg, cov, min_overlap, min_variance);
 }
 
 }  // namespace diachron
