@@ -6,12 +6,19 @@
 //                         [--min-overlap F] [--radius PX] [--measure intensity|gradient|orientation]
 //                         [--corr-radius PX] [--corr-window PX] [--min-score S] [--min-margin M]
 //                         [--second-pass PX] [--cell PX] [--ground-gsd G] [--no-ncc] [--no-refine]
-//                         [--ncc-correlation] [--calm] [--max-relief G] [--relief-radius PX]
+//                         [--ncc-correlation] [--calm] [--calm-only changes,sun,cover,film]
+//                         [--max-relief G] [--relief-radius PX] [--preblur S1,S2] [--dump FILE]
 //
 // --calm (a diagnostic): the same scenes without their decades, i.e. no landscape change between
 // the epochs and epoch 1 rendered with epoch 2's look (sun, land-cover response, no film defects);
 // cameras, resolutions and orientations as usual. What error remains is the matcher's and the
-// geometry's, not the landscape's.
+// geometry's, not the landscape's. --calm-only LIST takes away only some of the decades, to tell
+// their costs apart: changes (landscape change between the epochs), sun (epoch 1 under epoch 2's
+// sun), cover (epoch 2's land-cover response), film (epoch 2's tone, grain, scanner and dust, blur
+// and no JPEG). --preblur S1,S2 blurs each epoch's images (Gaussian sigma in its own px) before
+// matching. --dump FILE writes every final match of the methods run: positions, score, true error
+// and its vector (epoch-2 px, NaN when the truth cannot decide), the truth's status, and its
+// residual to the rough transfer's prediction.
 //
 // Methods (comma-separated; default all but xfeat when the model is absent):
 //   baseline        whole-image SIFT (8000 strongest keypoints), ratio 0.8 + mutual, F-RANSAC 3 px
@@ -38,6 +45,7 @@
 #include <vector>
 
 #include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include <diachron/eval/match_truth.hpp>
 #include <diachron/pipeline/overlapping_pairs.hpp>
@@ -46,6 +54,7 @@
 #include <diachron/synth/scene.hpp>
 #include <diachron/vision/akaze.hpp>
 #include <diachron/vision/extractor_pair_matcher.hpp>
+#include <diachron/vision/image.hpp>
 #include <diachron/vision/sift.hpp>
 #include <diachron/vision/xfeat.hpp>
 
@@ -80,6 +89,9 @@ struct Arguments {
   double ground_gsd = std::nan("");
   double max_relief = std::nan(""), relief_radius = std::nan("");
   bool no_ncc = false, no_refine = false, ncc_correlation = false, calm = false;
+  std::vector<std::string> calm_only;
+  std::string dump;
+  double preblur[2] = {0.0, 0.0};
 };
 
 Arguments parse(int argc, char** argv) {
@@ -117,6 +129,15 @@ Arguments parse(int argc, char** argv) {
     else if (s == "--ncc-correlation") a.ncc_correlation = true;
     else if (s == "--no-refine") a.no_refine = true;
     else if (s == "--calm") a.calm = true;
+    else if (s == "--calm-only") a.calm_only = split_list(value());
+    else if (s == "--dump") a.dump = value();
+    else if (s == "--preblur") {
+      if (std::sscanf(value().c_str(), "%lf,%lf", &a.preblur[0], &a.preblur[1]) != 2 || !(a.preblur[0] >= 0) ||
+          !(a.preblur[1] >= 0)) {
+        std::fprintf(stderr, "--preblur wants S1,S2 (sigmas >= 0)\n");
+        std::exit(1);
+      }
+    }
     else {
       std::fprintf(stderr, "unknown argument %s\n", s.c_str());
       std::exit(1);
@@ -248,6 +269,9 @@ int main(int argc, char** argv) {
     for (const std::string& m : args.methods) std::printf(" %s", m.c_str());
     std::printf("\n");
     std::map<std::string, MethodResult> results;
+    std::FILE* dump = nullptr;
+    if (!args.dump.empty() && !(dump = std::fopen(args.dump.c_str(), "w"))) throw Error("cannot write " + args.dump);
+    if (dump) std::fprintf(dump, "# method seed master secondary ax ay bx by score error_px status ex ey rx ry\n");
     std::vector<double> coreg_rms_cells;
     int coreg_failures = 0;
     std::size_t total_pairs = 0;
@@ -255,15 +279,34 @@ int main(int argc, char** argv) {
       SceneOptions scene_options = SceneOptions::decades_apart();
       scene_options.seed = args.first_seed + static_cast<std::uint64_t>(s);
       scene_options.threads = args.threads;
-      if (args.calm) {
+      const auto calm = [&args](const char* part) {
+        return args.calm || std::find(args.calm_only.begin(), args.calm_only.end(), part) != args.calm_only.end();
+      };
+      if (calm("changes")) {
         ChangeOptions none;  // the decades' own changes (trees, layouts, roads) are 0 by default
         none.changed_field_fraction = none.removed_building_fraction = none.new_building_fraction = 0.0;
         none.seasonal_shift = 0.0;
         scene_options.changes = none;
         scene_options.texture.bush_removal_probability = 0.0;
-        scene_options.epochs[0].look = scene_options.epochs[1].look;
-        scene_options.epochs[0].look.jpeg_quality = 0;
       }
+      LookOptions& look1 = scene_options.epochs[0].look;
+      const LookOptions& look2 = scene_options.epochs[1].look;
+      if (calm("sun")) {
+        look1.sun_azimuth_deg = look2.sun_azimuth_deg;
+        look1.sun_elevation_deg = look2.sun_elevation_deg;
+      }
+      if (calm("cover")) look1.land_cover = look2.land_cover;
+      if (calm("film")) {
+        const LookOptions keep = look1;
+        look1 = look2;
+        look1.sun_azimuth_deg = keep.sun_azimuth_deg;
+        look1.sun_elevation_deg = keep.sun_elevation_deg;
+        look1.land_cover = keep.land_cover;
+        look1.jpeg_quality = 0;
+      }
+      for (const std::string& part : args.calm_only)
+        if (part != "changes" && part != "sun" && part != "cover" && part != "film")
+          throw Error("unknown --calm-only part " + part);
       auto t0 = std::chrono::steady_clock::now();
       const Scene scene = generate_scene(scene_options);
       std::fprintf(stderr, "seed %llu: scene in %.1f s\n", static_cast<unsigned long long>(scene_options.seed),
@@ -306,8 +349,16 @@ int main(int argc, char** argv) {
       }
       total_pairs += pairs.size();
       std::fprintf(stderr, "  %zu overlapping pairs\n", pairs.size());
-      PreciseEpoch<Frame<FraserAffine>> p1{frames1, [&e1](std::size_t i) { return e1.images[i].pixels; }, &e1.dsm};
-      PreciseEpoch<Frame<FraserAffine>> p2{frames2, [&e2](std::size_t i) { return e2.images[i].pixels; }, &e2.dsm};
+      const double* blur = args.preblur;
+      const auto blurred = [](Raster<std::uint8_t> r, double sigma) {
+        if (sigma > 0) {
+          cv::Mat m = as_mat(r);
+          cv::GaussianBlur(m.clone(), m, cv::Size(0, 0), sigma);
+        }
+        return r;
+      };
+      PreciseEpoch<Frame<FraserAffine>> p1{frames1, [&](std::size_t i) { return blurred(e1.images[i].pixels, blur[0]); }, &e1.dsm};
+      PreciseEpoch<Frame<FraserAffine>> p2{frames2, [&](std::size_t i) { return blurred(e2.images[i].pixels, blur[1]); }, &e2.dsm};
       const MatchTruthScorer truth(scene);
 
       for (const std::string& m : args.methods) {
@@ -356,6 +407,19 @@ int main(int argc, char** argv) {
           for (const PrecisePairReport& r : report.pairs)
             std::fprintf(stderr, "    %zu-%zu: %s\n", r.master, r.secondary, r.message.c_str());
         for (const PrecisePairReport& r : report.pairs) score_pair(result, truth, r);
+        if (dump)
+          for (const PrecisePairReport& r : report.pairs) {
+            const auto transfer = make_dsm_transfer(frames1[r.master], e1.dsm, frames2[r.secondary], rough.epoch2_from_epoch1);
+            for (const PointMatch& pm : r.matches) {
+              const MatchTruth t = truth.score({0, static_cast<int>(r.master)}, {1, static_cast<int>(r.secondary)}, pm.a, pm.b);
+              const Eigen::Vector2d e = pm.b - t.true_pixel;
+              const Eigen::Vector2d res = pm.b - transfer(pm.a).value_or(Eigen::Vector2d::Constant(std::nan("")));
+              std::fprintf(dump, "%s %llu %zu %zu %.3f %.3f %.3f %.3f %.5f %.4f %d %.4f %.4f %.4f %.4f\n", m.c_str(),
+                           static_cast<unsigned long long>(scene_options.seed), r.master, r.secondary, pm.a.x(), pm.a.y(),
+                           pm.b.x(), pm.b.y(), pm.score, t.scored() ? t.error_px : std::nan(""),
+                           static_cast<int>(t.status), e.x(), e.y(), res.x(), res.y());
+            }
+          }
         std::fprintf(stderr, "  %s: %.1f s, median %.0f final correct (< 3 px) per pair so far\n", m.c_str(),
                      seconds_since(t0), median(result.stages[3].correct3_per_pair));
       }
@@ -374,6 +438,7 @@ int main(int argc, char** argv) {
       }
       std::printf("(whole-image SIFT: %.0f correct F-RANSAC inliers on the same pairs)\n", base);
     }
+    if (dump) std::fclose(dump);
     return 0;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "precise_matching_eval: %s\n", e.what());
