@@ -129,7 +129,14 @@ Arguments parse(int argc, char** argv) {
     else if (s == "--ncc-correlation") a.ncc_correlation = true;
     else if (s == "--no-refine") a.no_refine = true;
     else if (s == "--calm") a.calm = true;
-    else if (s == "--calm-only") a.calm_only = split_list(value());
+    else if (s == "--calm-only") {
+      a.calm_only = split_list(value());
+      for (const std::string& part : a.calm_only)
+        if (part != "changes" && part != "sun" && part != "cover" && part != "film") {
+          std::fprintf(stderr, "unknown --calm-only part %s (changes, sun, cover, film)\n", part.c_str());
+          std::exit(1);
+        }
+    }
     else if (s == "--dump") a.dump = value();
     else if (s == "--preblur") {
       if (std::sscanf(value().c_str(), "%lf,%lf", &a.preblur[0], &a.preblur[1]) != 2 || !(a.preblur[0] >= 0) ||
@@ -304,9 +311,6 @@ int main(int argc, char** argv) {
         look1.land_cover = keep.land_cover;
         look1.jpeg_quality = 0;
       }
-      for (const std::string& part : args.calm_only)
-        if (part != "changes" && part != "sun" && part != "cover" && part != "film")
-          throw Error("unknown --calm-only part " + part);
       auto t0 = std::chrono::steady_clock::now();
       const Scene scene = generate_scene(scene_options);
       std::fprintf(stderr, "seed %llu: scene in %.1f s\n", static_cast<unsigned long long>(scene_options.seed),

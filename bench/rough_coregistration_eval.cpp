@@ -134,10 +134,11 @@ Config parse_config(const std::string& text) {
   // corr: the default with the dense correlation fallback on (RoughCoregistrationOptions::
   // correlation_fallback), run when every feature hypothesis fails; corrgrad: the same correlating
   // the heights' gradient (CorrelationSignal::gradient); corrgradN: also coarse_size_px N.
-  if (image == "corr" || image.rfind("corrgrad", 0) == 0) {
+  const std::string gradient = "corrgrad";
+  if (image == "corr" || image.rfind(gradient, 0) == 0) {
     o.correlation_fallback = true;
     if (image != "corr") o.correlation_search.signal = CorrelationSignal::gradient;
-    if (image.size() > 8) o.correlation_search.coarse_size_px = std::stod(image.substr(8));
+    if (image.size() > gradient.size()) o.correlation_search.coarse_size_px = std::stod(image.substr(gradient.size()));
     return c;
   }
   if (image == "noscale") {

@@ -331,8 +331,8 @@ inline double regression_gain(const std::vector<Raster<float>>& fixed, const std
   for (std::size_t c = 0; c < fixed.size() && c < moving.size(); ++c) {
     const OverlapMoments m = overlap_moments(fixed[c], moving[c], dx, dy);
     if (m.n < 2.0) return std::numeric_limits<double>::quiet_NaN();
-    cov += m.sfg - m.sf * m.sg / m.n;
-    var += m.sgg - m.sg * m.sg / m.n;
+    cov += m.cov();
+    var += m.var_moving();
   }
   return var > 0.0 ? cov / var : std::numeric_limits<double>::quiet_NaN();
 }

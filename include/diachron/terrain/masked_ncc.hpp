@@ -249,6 +249,11 @@ namespace detail {
 /// Sums over the pixel pairs of one channel's overlap at a shift (moving pixel q on fixed pixel q + d).
 struct OverlapMoments {
   double n = 0.0, sf = 0.0, sg = 0.0, sff = 0.0, sgg = 0.0, sfg = 0.0;
+
+  /// The centred sums (n times the variances and the covariance); valid when n >= 1.
+  double var_fixed() const { return sff - sf * sf / n; }
+  double var_moving() const { return sgg - sg * sg / n; }
+  double cov() const { return sfg - sf * sg / n; }
 };
 
 inline OverlapMoments overlap_moments(const Raster<float>& fixed, const Raster<float>& moving, int dx, int dy) {
@@ -288,8 +293,7 @@ inline double masked_ncc_at(const Raster<float>& fixed, const Raster<float>& mov
   const detail::OverlapMoments m = detail::overlap_moments(fixed, moving, dx, dy);
   if (overlap) *overlap = static_cast<int>(m.n);
   if (m.n < 1.0) return std::numeric_limits<double>::quiet_NaN();
-  return detail::zncc_from_moments(m.n, m.sff - m.sf * m.sf / m.n, m.sgg - m.sg * m.sg / m.n, m.sfg - m.sf * m.sg / m.n,
-                                   min_overlap, min_variance);
+  return detail::zncc_from_moments(m.n, m.var_fixed(), m.var_moving(), m.cov(), min_overlap, min_variance);
 }
 
 /// masked_ncc_at() for a signal of several channels (same sizes and holes in each), as
@@ -302,9 +306,9 @@ inline double masked_ncc_at(const std::vector<Raster<float>>& fixed, const std::
     const detail::OverlapMoments m = detail::overlap_moments(fixed[c], moving[c], dx, dy);
     n = m.n;
     if (m.n < 1.0) break;
-    vf += m.sff - m.sf * m.sf / m.n;
-    vg += m.sgg - m.sg * m.sg / m.n;
-    cov += m.sfg - m.sf * m.sg / m.n;
+    vf += m.var_fixed();
+    vg += m.var_moving();
+    cov += m.cov();
   }
   if (overlap) *overlap = static_cast<int>(n);
   return detail::zncc_from_moments(n, vf, vg, cov, min_overlap, min_variance);
