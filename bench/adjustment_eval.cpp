@@ -19,7 +19,9 @@
 //                2's fixed orientation by the similarity of its epoch-2 centres onto the input's)
 // Check points: their true pixels in the epoch-1 images triangulated with each orientation, against
 // their true position; in world metres and in epoch-1 GSD. Intrinsics: epoch 1's recovered focal
-// length, principal point and distortion (eval/distortion_difference.hpp) against the true camera.
+// length, principal point and distortion (eval/distortion_difference.hpp) against the true camera,
+// and the whole camera with the focal length and principal point refitted (refit_*) and beyond
+// what a change of pose absorbs over flat ground (beyond_pose_*).
 // The sparse DoD (eval/dod.hpp): epoch 1's tie points triangulated with each orientation against
 // epoch 2's DSM, in metres (it includes the real change of the landscape, as the paper's does).
 // Two oracles bound what the matches and the reference cost: "oracle e2 frames" holds the true
@@ -90,6 +92,14 @@ struct Outcome {
   // what the data determine, without the corners no observation reaches.
   double observed_distortion_px = std::nan("");
   double observed_distortion_rms_px = std::nan("");
+  // The whole ray-to-pixel mapping against the truth's, after what a change of pose over flat ground
+  // absorbs (DistortionDifference::beyond_pose_*): the part of the camera error no pose can hide.
+  double beyond_pose_px = std::nan("");
+  double beyond_pose_rms_px = std::nan("");
+  // The same after the least-squares focal length and principal point (refit_*): the balanced
+  // comparison, where a radial polynomial's share of the focal length does not count.
+  double refit_px = std::nan("");
+  double refit_rms_px = std::nan("");
   double seconds = 0.0;
   DodReport dod;  ///< epoch 1's tie points against epoch 2's DSM, world metres
 };
@@ -113,6 +123,10 @@ void judge(Outcome& o, const Scene& scene, const Frames& epoch1, const std::vect
   const DistortionDifference distortion = distortion_difference(camera, truth);
   o.distortion_px = distortion.max_px;
   o.distortion_rms_px = distortion.rms_px;
+  o.beyond_pose_px = distortion.beyond_pose_max_px;
+  o.beyond_pose_rms_px = distortion.beyond_pose_rms_px;
+  o.refit_px = distortion.refit_max_px;
+  o.refit_rms_px = distortion.refit_rms_px;
   const DistortionDifference on_data = distortion_difference_at(camera, truth, observed);
   o.observed_distortion_px = on_data.max_px;
   o.observed_distortion_rms_px = on_data.rms_px;
@@ -381,11 +395,11 @@ int main(int argc, char** argv) {
       const Outcome& o = results[v].back();
       std::fprintf(stderr,
                    "  %-10s  check points %zu: RMS %.2f m = %.2f GSD, |mu| X %.2f Y %.2f Z %.2f m; f %+.2f, pp %.2f, "
-                   "distortion %.2f px (RMS %.2f), over the observed pixels %.2f (RMS %.2f); DoD mu %.2f sigma %.2f mean |dz| %.2f m; %.2f s\n",
+                   "distortion %.2f px (RMS %.2f), over the observed pixels %.2f (RMS %.2f), with f and pp refitted %.2f (RMS %.2f), beyond a pose %.2f (RMS %.2f); DoD mu %.2f sigma %.2f mean |dz| %.2f m; %.2f s\n",
                    v, o.check.num_used, o.check.rms_3d_m, o.check.rms_3d_gsd, o.check.axes_m[0].mean_abs,
                    o.check.axes_m[1].mean_abs, o.check.axes_m[2].mean_abs, o.focal_error_px, o.pp_error_px,
                    o.distortion_px, o.distortion_rms_px, o.observed_distortion_px, o.observed_distortion_rms_px,
-                   o.dod.statistics.mean, o.dod.statistics.sigma,
+                   o.refit_px, o.refit_rms_px, o.beyond_pose_px, o.beyond_pose_rms_px, o.dod.statistics.mean, o.dod.statistics.sigma,
                    o.dod.statistics.mean_abs, o.seconds);
     }
   }
@@ -394,12 +408,12 @@ int main(int argc, char** argv) {
               seeds, static_cast<unsigned long long>(first_seed), coregistered, median(inter_matches), median(inter_correct));
   std::printf("| variant | seeds | check-point RMS 3D (m) | in GSD | mean abs error X / Y / Z (m) | sigma X / Y / Z (m) | "
               "focal error (px) | principal point error (px) | distortion, worst over the image (px) | distortion over the "
-              "observed pixels, worst / RMS (px) | DoD mu / sigma / mean abs (m) | time (s) |\n");
-  std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+              "observed pixels, worst / RMS (px) | camera with f and pp refitted, worst / RMS (px) | camera beyond a pose, worst / RMS (px) | DoD mu / sigma / mean abs (m) | time (s) |\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (const char* v : kVariants) {
     const auto it = results.find(v);
     if (it == results.end()) continue;
-    std::vector<double> rms, gsd, mx, my, mz, sx, sy, sz, f, pp, d, od, orms, t, dm, ds, da;
+    std::vector<double> rms, gsd, mx, my, mz, sx, sy, sz, f, pp, d, od, orms, rf, rfrms, bp, bprms, t, dm, ds, da;
     for (const Outcome& o : it->second) {
       if (!o.ran || !o.check.success) continue;
       rms.push_back(o.check.rms_3d_m);
@@ -415,16 +429,20 @@ int main(int argc, char** argv) {
       d.push_back(o.distortion_px);
       od.push_back(o.observed_distortion_px);
       orms.push_back(o.observed_distortion_rms_px);
+      rf.push_back(o.refit_px);
+      rfrms.push_back(o.refit_rms_px);
+      bp.push_back(o.beyond_pose_px);
+      bprms.push_back(o.beyond_pose_rms_px);
       t.push_back(o.seconds);
       dm.push_back(o.dod.statistics.mean);
       ds.push_back(o.dod.statistics.sigma);
       da.push_back(o.dod.statistics.mean_abs);
     }
-    std::printf("| %s | %zu | %s | %s | %s / %s / %s | %s / %s / %s | %s | %s | %s | %s / %s | %s / %s / %s | %s |\n", v, rms.size(),
+    std::printf("| %s | %zu | %s | %s | %s / %s / %s | %s / %s / %s | %s | %s | %s | %s / %s | %s / %s | %s / %s | %s / %s / %s | %s |\n", v, rms.size(),
                 fmt(median(rms)).c_str(), fmt(median(gsd)).c_str(), fmt(median(mx)).c_str(), fmt(median(my)).c_str(),
                 fmt(median(mz)).c_str(), fmt(median(sx)).c_str(), fmt(median(sy)).c_str(), fmt(median(sz)).c_str(),
                 fmt(median(f)).c_str(), fmt(median(pp)).c_str(), fmt(median(d)).c_str(), fmt(median(od)).c_str(),
-                fmt(median(orms)).c_str(), fmt(median(dm)).c_str(),
+                fmt(median(orms)).c_str(), fmt(median(rf)).c_str(), fmt(median(rfrms)).c_str(), fmt(median(bp)).c_str(), fmt(median(bprms)).c_str(), fmt(median(dm)).c_str(),
                 fmt(median(ds)).c_str(), fmt(median(da)).c_str(), fmt(median(t)).c_str());
   }
   return 0;
