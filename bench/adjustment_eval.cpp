@@ -21,7 +21,8 @@
 // their true position; in world metres and in epoch-1 GSD. Intrinsics: epoch 1's recovered focal
 // length, principal point and distortion (eval/distortion_difference.hpp) against the true camera,
 // and the whole camera with the focal length and principal point refitted (refit_*) and beyond
-// what a change of pose absorbs over flat ground (beyond_pose_*).
+// what a change of pose absorbs over flat ground (beyond_pose_*), and the distortion's 1-sigma the
+// adjustment predicts from its covariance (eval/distortion_precision.hpp).
 // The sparse DoD (eval/dod.hpp): epoch 1's tie points triangulated with each orientation against
 // epoch 2's DSM, in metres (it includes the real change of the landscape, as the paper's does).
 // Two oracles bound what the matches and the reference cost: "oracle e2 frames" holds the true
@@ -54,6 +55,7 @@
 #include <diachron/adjustment/triangulation.hpp>
 #include <diachron/eval/check_points.hpp>
 #include <diachron/eval/distortion_difference.hpp>
+#include <diachron/eval/distortion_precision.hpp>
 #include <diachron/eval/dod.hpp>
 #include <diachron/eval/match_truth.hpp>
 #include <diachron/eval/scene_check_points.hpp>
@@ -100,6 +102,10 @@ struct Outcome {
   // comparison, where a radial polynomial's share of the focal length does not count.
   double refit_px = std::nan("");
   double refit_rms_px = std::nan("");
+  // The adjustment's own prediction: epoch 1's distortion 1-sigma over the image from the covariance
+  // of its camera (eval/distortion_precision.hpp), worst and RMS; NaN without a covariance.
+  double predicted_sigma_px = std::nan("");
+  double predicted_sigma_rms_px = std::nan("");
   double seconds = 0.0;
   DodReport dod;  ///< epoch 1's tie points against epoch 2's DSM, world metres
 };
@@ -363,6 +369,11 @@ int main(int argc, char** argv) {
           e1_adjusted = transformed_frames(r.epoch1, *fit_helmert3(centres));
         }
         judge(o, scene, e1_adjusted, observed);
+        if (!r.report.cameras.empty() && !r.report.cameras.front().covariance.empty()) {  // camera 0: epoch 1's
+          const DistortionPrecision p = distortion_precision(e1_adjusted.front().camera(), r.report.cameras.front().covariance);
+          o.predicted_sigma_px = p.max_sigma_px;
+          o.predicted_sigma_rms_px = p.rms_sigma_px;
+        }
       } else {
         o.note = r.report.message;
       }
@@ -395,11 +406,12 @@ int main(int argc, char** argv) {
       const Outcome& o = results[v].back();
       std::fprintf(stderr,
                    "  %-10s  check points %zu: RMS %.2f m = %.2f GSD, |mu| X %.2f Y %.2f Z %.2f m; f %+.2f, pp %.2f, "
-                   "distortion %.2f px (RMS %.2f), over the observed pixels %.2f (RMS %.2f), with f and pp refitted %.2f (RMS %.2f), beyond a pose %.2f (RMS %.2f); DoD mu %.2f sigma %.2f mean |dz| %.2f m; %.2f s\n",
+                   "distortion %.2f px (RMS %.2f), over the observed pixels %.2f (RMS %.2f), with f and pp refitted %.2f (RMS %.2f), beyond a pose %.2f (RMS %.2f), predicted 1-sigma %.2f (RMS %.2f); DoD mu %.2f sigma %.2f mean |dz| %.2f m; %.2f s\n",
                    v, o.check.num_used, o.check.rms_3d_m, o.check.rms_3d_gsd, o.check.axes_m[0].mean_abs,
                    o.check.axes_m[1].mean_abs, o.check.axes_m[2].mean_abs, o.focal_error_px, o.pp_error_px,
                    o.distortion_px, o.distortion_rms_px, o.observed_distortion_px, o.observed_distortion_rms_px,
-                   o.refit_px, o.refit_rms_px, o.beyond_pose_px, o.beyond_pose_rms_px, o.dod.statistics.mean, o.dod.statistics.sigma,
+                   o.refit_px, o.refit_rms_px, o.beyond_pose_px, o.beyond_pose_rms_px,
+                   o.predicted_sigma_px, o.predicted_sigma_rms_px, o.dod.statistics.mean, o.dod.statistics.sigma,
                    o.dod.statistics.mean_abs, o.seconds);
     }
   }
@@ -408,12 +420,12 @@ int main(int argc, char** argv) {
               seeds, static_cast<unsigned long long>(first_seed), coregistered, median(inter_matches), median(inter_correct));
   std::printf("| variant | seeds | check-point RMS 3D (m) | in GSD | mean abs error X / Y / Z (m) | sigma X / Y / Z (m) | "
               "focal error (px) | principal point error (px) | distortion, worst over the image (px) | distortion over the "
-              "observed pixels, worst / RMS (px) | camera with f and pp refitted, worst / RMS (px) | camera beyond a pose, worst / RMS (px) | DoD mu / sigma / mean abs (m) | time (s) |\n");
-  std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+              "observed pixels, worst / RMS (px) | camera with f and pp refitted, worst / RMS (px) | camera beyond a pose, worst / RMS (px) | distortion 1-sigma predicted, worst / RMS (px) | DoD mu / sigma / mean abs (m) | time (s) |\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (const char* v : kVariants) {
     const auto it = results.find(v);
     if (it == results.end()) continue;
-    std::vector<double> rms, gsd, mx, my, mz, sx, sy, sz, f, pp, d, od, orms, rf, rfrms, bp, bprms, t, dm, ds, da;
+    std::vector<double> rms, gsd, mx, my, mz, sx, sy, sz, f, pp, d, od, orms, rf, rfrms, bp, bprms, ps, psrms, t, dm, ds, da;
     for (const Outcome& o : it->second) {
       if (!o.ran || !o.check.success) continue;
       rms.push_back(o.check.rms_3d_m);
@@ -431,6 +443,10 @@ int main(int argc, char** argv) {
       orms.push_back(o.observed_distortion_rms_px);
       rf.push_back(o.refit_px);
       rfrms.push_back(o.refit_rms_px);
+      if (std::isfinite(o.predicted_sigma_px)) {  // only the combined adjustments have a covariance
+        ps.push_back(o.predicted_sigma_px);
+        psrms.push_back(o.predicted_sigma_rms_px);
+      }
       bp.push_back(o.beyond_pose_px);
       bprms.push_back(o.beyond_pose_rms_px);
       t.push_back(o.seconds);
@@ -438,11 +454,11 @@ int main(int argc, char** argv) {
       ds.push_back(o.dod.statistics.sigma);
       da.push_back(o.dod.statistics.mean_abs);
     }
-    std::printf("| %s | %zu | %s | %s | %s / %s / %s | %s / %s / %s | %s | %s | %s | %s / %s | %s / %s | %s / %s | %s / %s / %s | %s |\n", v, rms.size(),
+    std::printf("| %s | %zu | %s | %s | %s / %s / %s | %s / %s / %s | %s | %s | %s | %s / %s | %s / %s | %s / %s | %s / %s | %s / %s / %s | %s |\n", v, rms.size(),
                 fmt(median(rms)).c_str(), fmt(median(gsd)).c_str(), fmt(median(mx)).c_str(), fmt(median(my)).c_str(),
                 fmt(median(mz)).c_str(), fmt(median(sx)).c_str(), fmt(median(sy)).c_str(), fmt(median(sz)).c_str(),
                 fmt(median(f)).c_str(), fmt(median(pp)).c_str(), fmt(median(d)).c_str(), fmt(median(od)).c_str(),
-                fmt(median(orms)).c_str(), fmt(median(rf)).c_str(), fmt(median(rfrms)).c_str(), fmt(median(bp)).c_str(), fmt(median(bprms)).c_str(), fmt(median(dm)).c_str(),
+                fmt(median(orms)).c_str(), fmt(median(rf)).c_str(), fmt(median(rfrms)).c_str(), fmt(median(bp)).c_str(), fmt(median(bprms)).c_str(), fmt(median(ps)).c_str(), fmt(median(psrms)).c_str(), fmt(median(dm)).c_str(),
                 fmt(median(ds)).c_str(), fmt(median(da)).c_str(), fmt(median(t)).c_str());
   }
   return 0;

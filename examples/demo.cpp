@@ -28,6 +28,7 @@
 #include <diachron/adjustment/triangulation.hpp>
 #include <diachron/eval/check_points.hpp>
 #include <diachron/eval/distortion_difference.hpp>
+#include <diachron/eval/distortion_precision.hpp>
 #include <diachron/eval/scene_check_points.hpp>
 #include <diachron/io/adjusted_export.hpp>
 #include <diachron/pipeline/combined_adjustment.hpp>
@@ -180,6 +181,13 @@ int main(int argc, char** argv) {
       const DistortionDifference d = distortion_difference(*c, truth);
       std::printf("| %-18s | %11.2f | %21.2f | %17.2f | %21.2f | %20.2f |\n", name, c->focal() - truth.focal(),
                   (c->principal_point() - truth.principal_point()).norm(), d.max_px, d.refit_max_px, d.beyond_pose_max_px);
+    }
+    // What the adjustment itself says about it, without the truth: the distortion's 1-sigma over the
+    // image from the covariance of epoch 1's camera (camera 0).
+    if (!r.cameras.empty() && !r.cameras.front().covariance.empty()) {
+      const DistortionPrecision p = distortion_precision(recovered, r.cameras.front().covariance);
+      std::printf("Predicted by the adjustment (covariance): distortion 1-sigma %.2f px at worst (pixel %.0f, %.0f), %.2f px RMS\n",
+                  p.max_sigma_px, p.worst_pixel.x(), p.worst_pixel.y(), p.rms_sigma_px);
     }
     std::printf("\ntotal %.1f s\n", seconds_since(start));
     return 0;

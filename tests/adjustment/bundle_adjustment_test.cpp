@@ -10,6 +10,7 @@
 #include <diachron/adjustment/tracks.hpp>
 #include <diachron/core/error.hpp>
 #include <diachron/eval/distortion_difference.hpp>
+#include <diachron/eval/distortion_precision.hpp>
 
 #include "adjustment/block_fixture.hpp"
 
@@ -111,6 +112,20 @@ TEST_CASE("bundle_adjust: Nominal, the reference epoch fixed recovers the other 
   for (const ParameterChange& p : rep.cameras[0].values) CHECK((std::isfinite(p.sigma) && p.sigma > 0.0));
   for (const ParameterChange& p : rep.cameras[1].values) CHECK(std::isnan(p.sigma));
   CHECK(rep.cameras[0].values[0].sigma < 3.0);
+  // The full covariance of the free camera: its diagonal gives the sigmas; none for the fixed one.
+  REQUIRE(rep.cameras[0].covariance.size() == 64);
+  for (std::size_t k = 0; k < 8; ++k)
+    CHECK(std::sqrt(rep.cameras[0].covariance[k * 8 + k]) == Approx(rep.cameras[0].values[k].sigma).epsilon(1e-12));
+  CHECK(rep.cameras[0].covariance[0 * 8 + 3] == Approx(rep.cameras[0].covariance[3 * 8 + 0]).epsilon(1e-9));
+  CHECK(rep.cameras[1].covariance.empty());
+  // Propagated to the distortion over the image (eval/distortion_precision.hpp): the recovered
+  // distortion's RMS error is of the order of its predicted 1-sigma (honest, neither hidden nor
+  // inflated: the affine part, not in the camera's covariance, adds a little).
+  const DistortionPrecision precision = distortion_precision(adjusted, rep.cameras[0].covariance);
+  INFO("distortion 1-sigma: RMS " << precision.rms_sigma_px << " px, worst " << precision.max_sigma_px << " px");
+  REQUIRE(precision.valid);
+  CHECK(recovered.rms_px < 3.0 * precision.rms_sigma_px);
+  CHECK(recovered.rms_px > 0.2 * precision.rms_sigma_px);
   REQUIRE(rep.affine.size() == b.truth.size());
   CHECK(std::isfinite(rep.affine[0].values[0].sigma));
 

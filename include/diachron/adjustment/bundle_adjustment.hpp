@@ -248,13 +248,19 @@ inline BundleResult bundle_adjust(const BundleInput& input, const BundleOptions&
   } else {
     report.covariance_available = true;
   }
-  const auto sigmas = [&](const double* block, int size) {
+  // The block's a-posteriori covariance (row-major, scaled by sigma0^2); empty when there is none.
+  const auto block_covariance = [&](const double* block, int size) {
+    std::vector<double> c;
+    if (!report.covariance_available || !last->HasParameterBlock(block) || last->IsParameterBlockConstant(block)) return c;
+    c.resize(static_cast<std::size_t>(size * size));
+    if (!covariance.GetCovarianceBlock(block, block, c.data())) return std::vector<double>{};
+    for (double& v : c) v *= report.sigma0 * report.sigma0;
+    return c;
+  };
+  const auto sigmas = [&](const std::vector<double>& c, int size) {
     std::vector<double> out(static_cast<std::size_t>(size), std::numeric_limits<double>::quiet_NaN());
-    if (!report.covariance_available || !last->HasParameterBlock(block) || last->IsParameterBlockConstant(block)) return out;
-    std::vector<double> c(static_cast<std::size_t>(size * size));
-    if (!covariance.GetCovarianceBlock(block, block, c.data())) return out;
-    for (int k = 0; k < size; ++k)
-      out[static_cast<std::size_t>(k)] = report.sigma0 * std::sqrt(std::max(0.0, c[static_cast<std::size_t>(k * size + k)]));
+    if (c.empty()) return out;
+    for (int k = 0; k < size; ++k) out[static_cast<std::size_t>(k)] = std::sqrt(std::max(0.0, c[static_cast<std::size_t>(k * size + k)]));
     return out;
   };
   static const char* const kCameraNames[kFraserCameraBlockSize] = {"f", "cx", "cy", "K1", "K2", "K3", "P1", "P2"};
@@ -267,7 +273,8 @@ inline BundleResult bundle_adjust(const BundleInput& input, const BundleOptions&
       CameraReport cam;
       cam.camera = static_cast<int>(c);
       cam.free = problem.camera_free(c);
-      const std::vector<double> s = sigmas(problem.camera_block(c).data(), kFraserCameraBlockSize);
+      cam.covariance = block_covariance(problem.camera_block(c).data(), kFraserCameraBlockSize);
+      const std::vector<double> s = sigmas(cam.covariance, kFraserCameraBlockSize);
       for (int k = 0; k < kFraserCameraBlockSize; ++k) {
         const auto uk = static_cast<std::size_t>(k);
         cam.values.push_back({kCameraNames[k], before_camera[uk], problem.camera_block(c)[uk], s[uk]});
@@ -278,7 +285,7 @@ inline BundleResult bundle_adjust(const BundleInput& input, const BundleOptions&
     affine.image = static_cast<int>(i);
     affine.free = problem.affine_free(i);
     const auto& before_affine = affine_before[i];
-    const std::vector<double> s = sigmas(problem.affine_block_of(i).data(), kAffineBlockSize);
+    const std::vector<double> s = sigmas(block_covariance(problem.affine_block_of(i).data(), kAffineBlockSize), kAffineBlockSize);
     affine.values.push_back({"B1", before_affine[0], problem.affine_block_of(i)[0], s[0]});
     affine.values.push_back({"B2", before_affine[1], problem.affine_block_of(i)[1], s[1]});
     report.affine.push_back(std::move(affine));

@@ -52,6 +52,11 @@ struct CameraReport {
   int camera = 0;
   bool free = false;                      ///< estimated (else held fixed)
   std::vector<ParameterChange> values;    ///< f, cx, cy (px), K1, K2, K3, P1, P2
+  /// A-posteriori covariance of the same 8 values, row-major 8 x 8 (ceres::Covariance scaled by
+  /// sigma0^2; px^2 and the parameters' units); empty when the camera was fixed or the covariance
+  /// is unavailable. eval/distortion_precision.hpp turns it into the distortion's 1-sigma over the
+  /// image: the correlations (f against K1 on a near-nadir block) matter as much as the sigmas.
+  std::vector<double> covariance;
 };
 
 /// The affine part of one image (with AffineScope::per_camera, its camera's shared values).
