@@ -88,24 +88,15 @@ struct Outcome {
   CheckPointReport check;
   double focal_error_px = std::nan("");
   double pp_error_px = std::nan("");
-  double distortion_px = std::nan("");
-  double distortion_rms_px = std::nan("");
+  // Epoch 1's camera against the truth over the image (worst, RMS, and the whole mapping with the
+  // focal length and principal point refitted, refit_*, and beyond a change of pose, beyond_pose_*).
+  DistortionDifference distortion;
   // The same over the pixels of epoch 1 that carry observations (tie points and inter-epoch matches):
   // what the data determine, without the corners no observation reaches.
-  double observed_distortion_px = std::nan("");
-  double observed_distortion_rms_px = std::nan("");
-  // The whole ray-to-pixel mapping against the truth's, after what a change of pose over flat ground
-  // absorbs (DistortionDifference::beyond_pose_*): the part of the camera error no pose can hide.
-  double beyond_pose_px = std::nan("");
-  double beyond_pose_rms_px = std::nan("");
-  // The same after the least-squares focal length and principal point (refit_*): the balanced
-  // comparison, where a radial polynomial's share of the focal length does not count.
-  double refit_px = std::nan("");
-  double refit_rms_px = std::nan("");
+  DistortionDifference on_observed;
   // The adjustment's own prediction: epoch 1's distortion 1-sigma over the image from the covariance
-  // of its camera (eval/distortion_precision.hpp), worst and RMS; NaN without a covariance.
-  double predicted_sigma_px = std::nan("");
-  double predicted_sigma_rms_px = std::nan("");
+  // of its camera (eval/distortion_precision.hpp); not valid without a covariance.
+  DistortionPrecision predicted;
   double seconds = 0.0;
   DodReport dod;  ///< epoch 1's tie points against epoch 2's DSM, world metres
 };
@@ -126,16 +117,8 @@ void judge(Outcome& o, const Scene& scene, const Frames& epoch1, const std::vect
   o.check = check_points(scene, epoch1);
   o.focal_error_px = std::abs(camera.focal() - truth.focal());
   o.pp_error_px = (camera.principal_point() - truth.principal_point()).norm();
-  const DistortionDifference distortion = distortion_difference(camera, truth);
-  o.distortion_px = distortion.max_px;
-  o.distortion_rms_px = distortion.rms_px;
-  o.beyond_pose_px = distortion.beyond_pose_max_px;
-  o.beyond_pose_rms_px = distortion.beyond_pose_rms_px;
-  o.refit_px = distortion.refit_max_px;
-  o.refit_rms_px = distortion.refit_rms_px;
-  const DistortionDifference on_data = distortion_difference_at(camera, truth, observed);
-  o.observed_distortion_px = on_data.max_px;
-  o.observed_distortion_rms_px = on_data.rms_px;
+  o.distortion = distortion_difference(camera, truth);
+  o.on_observed = distortion_difference_at(camera, truth, observed);
   // The sparse DoD: epoch 1's tie points triangulated with these frames against epoch 2's DSM (the
   // SfM's, in its frame), heights brought to metres by the frame's scale.
   std::vector<Vec3> points;
@@ -370,9 +353,7 @@ int main(int argc, char** argv) {
         }
         judge(o, scene, e1_adjusted, observed);
         if (!r.report.cameras.empty() && !r.report.cameras.front().covariance.empty()) {  // camera 0: epoch 1's
-          const DistortionPrecision p = distortion_precision(e1_adjusted.front().camera(), r.report.cameras.front().covariance);
-          o.predicted_sigma_px = p.max_sigma_px;
-          o.predicted_sigma_rms_px = p.rms_sigma_px;
+          o.predicted = distortion_precision(e1_adjusted.front().camera(), r.report.cameras.front().covariance);
         }
       } else {
         o.note = r.report.message;
@@ -409,9 +390,9 @@ int main(int argc, char** argv) {
                    "distortion %.2f px (RMS %.2f), over the observed pixels %.2f (RMS %.2f), with f and pp refitted %.2f (RMS %.2f), beyond a pose %.2f (RMS %.2f), predicted 1-sigma %.2f (RMS %.2f); DoD mu %.2f sigma %.2f mean |dz| %.2f m; %.2f s\n",
                    v, o.check.num_used, o.check.rms_3d_m, o.check.rms_3d_gsd, o.check.axes_m[0].mean_abs,
                    o.check.axes_m[1].mean_abs, o.check.axes_m[2].mean_abs, o.focal_error_px, o.pp_error_px,
-                   o.distortion_px, o.distortion_rms_px, o.observed_distortion_px, o.observed_distortion_rms_px,
-                   o.refit_px, o.refit_rms_px, o.beyond_pose_px, o.beyond_pose_rms_px,
-                   o.predicted_sigma_px, o.predicted_sigma_rms_px, o.dod.statistics.mean, o.dod.statistics.sigma,
+                   o.distortion.max_px, o.distortion.rms_px, o.on_observed.max_px, o.on_observed.rms_px,
+                   o.distortion.refit_max_px, o.distortion.refit_rms_px, o.distortion.beyond_pose_max_px,
+                   o.distortion.beyond_pose_rms_px, o.predicted.max_sigma_px, o.predicted.rms_sigma_px, o.dod.statistics.mean, o.dod.statistics.sigma,
                    o.dod.statistics.mean_abs, o.seconds);
     }
   }
@@ -438,17 +419,17 @@ int main(int argc, char** argv) {
       sz.push_back(o.check.axes_m[2].sigma);
       f.push_back(o.focal_error_px);
       pp.push_back(o.pp_error_px);
-      d.push_back(o.distortion_px);
-      od.push_back(o.observed_distortion_px);
-      orms.push_back(o.observed_distortion_rms_px);
-      rf.push_back(o.refit_px);
-      rfrms.push_back(o.refit_rms_px);
-      if (std::isfinite(o.predicted_sigma_px)) {  // only the combined adjustments have a covariance
-        ps.push_back(o.predicted_sigma_px);
-        psrms.push_back(o.predicted_sigma_rms_px);
+      d.push_back(o.distortion.max_px);
+      od.push_back(o.on_observed.max_px);
+      orms.push_back(o.on_observed.rms_px);
+      rf.push_back(o.distortion.refit_max_px);
+      rfrms.push_back(o.distortion.refit_rms_px);
+      if (o.predicted.valid) {  // only the combined adjustments have a covariance
+        ps.push_back(o.predicted.max_sigma_px);
+        psrms.push_back(o.predicted.rms_sigma_px);
       }
-      bp.push_back(o.beyond_pose_px);
-      bprms.push_back(o.beyond_pose_rms_px);
+      bp.push_back(o.distortion.beyond_pose_max_px);
+      bprms.push_back(o.distortion.beyond_pose_rms_px);
       t.push_back(o.seconds);
       dm.push_back(o.dod.statistics.mean);
       ds.push_back(o.dod.statistics.sigma);

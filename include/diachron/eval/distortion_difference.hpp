@@ -67,6 +67,24 @@ struct DistortionDifference {
 
 namespace detail {
 
+/// d(p) = p - c - f x of `camera` at `pixel`, whose ray has ideal normalised coordinates `ray` (the
+/// file comment's definition, shared with eval/distortion_precision.hpp), px.
+template <class Distortion>
+Vec2 distortion_at(const Camera<Distortion>& camera, const Vec2& pixel, const Vec2& ray) {
+  return pixel - camera.principal_point() - camera.focal() * ray;
+}
+
+/// A samples x samples grid of pixels from the centre of one corner pixel of a width x height image to
+/// the opposite one, evenly spaced, row by row. samples >= 2.
+inline std::vector<Vec2> corner_to_corner_grid(int width, int height, int samples) {
+  std::vector<Vec2> grid;
+  grid.reserve(static_cast<std::size_t>(samples) * static_cast<std::size_t>(samples));
+  for (int j = 0; j < samples; ++j)
+    for (int i = 0; i < samples; ++i)
+      grid.emplace_back((width - 1) * static_cast<double>(i) / (samples - 1), (height - 1) * static_cast<double>(j) / (samples - 1));
+  return grid;
+}
+
 /// Largest and RMS residual of `observed` (2n values, px) after its least-squares fit by the
 /// columns of `design`; {inf, inf} when they are not independent.
 inline std::pair<double, double> residual_after_fit(const Eigen::MatrixXd& design, const Eigen::VectorXd& observed) {
@@ -137,9 +155,7 @@ DistortionDifference distortion_difference_at(const Camera<DistortionA>& a, cons
       ++out.failed;
       continue;
     }
-    const Vec2 da = pixel - a.principal_point() - a.focal() * *xa;
-    const Vec2 db = pixel - b.principal_point() - b.focal() * *xb;
-    const double e = (da - db).norm();
+    const double e = (detail::distortion_at(a, pixel, *xa) - detail::distortion_at(b, pixel, *xb)).norm();
     worst = std::max(worst, e);
     sum += e * e;
     ++out.samples;
@@ -164,14 +180,7 @@ template <class DistortionA, class DistortionB>
 DistortionDifference distortion_difference(const Camera<DistortionA>& a, const Camera<DistortionB>& b,
                                            const DistortionDifferenceOptions& options = {}) {
   DIACHRON_CHECK(options.samples >= 2, "DistortionDifferenceOptions::samples must be >= 2, got " << options.samples);
-  std::vector<Vec2> grid;
-  const int n = options.samples;
-  grid.reserve(static_cast<std::size_t>(n) * static_cast<std::size_t>(n));
-  for (int j = 0; j < n; ++j)
-    for (int i = 0; i < n; ++i)
-      // Pixel centres of the corner pixels and an even grid between them.
-      grid.emplace_back((a.width() - 1) * static_cast<double>(i) / (n - 1), (a.height() - 1) * static_cast<double>(j) / (n - 1));
-  return distortion_difference_at(a, b, grid);
+  return distortion_difference_at(a, b, detail::corner_to_corner_grid(a.width(), a.height(), options.samples));
 }
 
 }  // namespace diachron

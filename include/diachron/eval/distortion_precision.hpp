@@ -22,6 +22,7 @@
 #include <diachron/camera/camera.hpp>
 #include <diachron/core/error.hpp>
 #include <diachron/core/types.hpp>
+#include <diachron/eval/distortion_difference.hpp>  // d(p) and the grid, shared
 
 #include <Eigen/Dense>
 
@@ -69,7 +70,7 @@ DistortionPrecision distortion_precision(const Camera<Distortion>& camera, const
   const auto distortion_at = [](const C& c, const Vec2& pixel) -> std::optional<Vec2> {
     const std::optional<Vec2> x = c.normalized_from_pixel(pixel);
     if (!x) return std::nullopt;
-    return Vec2(pixel - c.principal_point() - c.focal() * *x);
+    return detail::distortion_at(c, pixel, *x);
   };
   std::vector<C> plus, minus;
   for (int k = 0; k < n; ++k) {
@@ -82,29 +83,25 @@ DistortionPrecision distortion_precision(const Camera<Distortion>& camera, const
 
   DistortionPrecision out;
   double worst = 0.0, sum = 0.0;
-  const int s = options.samples;
-  for (int j = 0; j < s; ++j)
-    for (int i = 0; i < s; ++i) {
-      const Vec2 pixel((camera.width() - 1) * static_cast<double>(i) / (s - 1),
-                       (camera.height() - 1) * static_cast<double>(j) / (s - 1));
-      Eigen::Matrix<double, 2, Eigen::Dynamic> jacobian(2, n);
-      bool ok = true;
-      for (int k = 0; k < n && ok; ++k) {
-        const std::optional<Vec2> a = distortion_at(plus[static_cast<std::size_t>(k)], pixel);
-        const std::optional<Vec2> b = distortion_at(minus[static_cast<std::size_t>(k)], pixel);
-        ok = a && b;
-        if (ok) jacobian.col(k) = (*a - *b) / (2.0 * steps[static_cast<std::size_t>(k)]);
-      }
-      if (!ok) continue;
-      const Mat2 pixel_cov = jacobian * cov * jacobian.transpose();
-      const double sigma = std::sqrt(std::max(0.0, Eigen::SelfAdjointEigenSolver<Mat2>(pixel_cov).eigenvalues().maxCoeff()));
-      if (sigma >= worst) {
-        worst = sigma;
-        out.worst_pixel = pixel;
-      }
-      sum += sigma * sigma;
-      ++out.samples;
+  for (const Vec2& pixel : detail::corner_to_corner_grid(camera.width(), camera.height(), options.samples)) {
+    Eigen::Matrix<double, 2, Eigen::Dynamic> jacobian(2, n);
+    bool ok = true;
+    for (int k = 0; k < n && ok; ++k) {
+      const std::optional<Vec2> a = distortion_at(plus[static_cast<std::size_t>(k)], pixel);
+      const std::optional<Vec2> b = distortion_at(minus[static_cast<std::size_t>(k)], pixel);
+      ok = a && b;
+      if (ok) jacobian.col(k) = (*a - *b) / (2.0 * steps[static_cast<std::size_t>(k)]);
     }
+    if (!ok) continue;
+    const Mat2 pixel_cov = jacobian * cov * jacobian.transpose();
+    const double sigma = std::sqrt(std::max(0.0, Eigen::SelfAdjointEigenSolver<Mat2>(pixel_cov).eigenvalues().maxCoeff()));
+    if (sigma >= worst) {
+      worst = sigma;
+      out.worst_pixel = pixel;
+    }
+    sum += sigma * sigma;
+    ++out.samples;
+  }
   if (out.samples == 0) return out;
   out.valid = true;
   out.max_sigma_px = worst;
