@@ -29,13 +29,16 @@
 // epoch-2 orientation fixed, "oracle matches" matches the same master points by the truth.
 //
 //   adjustment_eval [--seeds N] [--first-seed S] [--threads N] [--no-colmap] [--colmap-work DIR]
-//                   [--max-relief G] [--cell PX] [--e1-block RxC]
+//                   [--max-relief G] [--cell PX] [--e1-block RxC] [--e1-ties N]
 //
 // --max-relief G: precise matching skips master points whose ground is not locally a plane to G
 // secondary GSD (PreciseCorrelationOptions::max_relief_gsd; default off, as match_epochs).
 // --cell PX: correlation master points per PX px cell (default 6, as match_epochs).
 // --e1-block RxC: epoch 1 flown as R strips of C images (default 2x2, SceneOptions::decades_apart()),
 // at the same overlaps: how much the block's size, not the matches, limits the self-calibration.
+// --e1-ties N: epoch 1's SfM hands over N intra-epoch tie point attempts (EpochOptions::tie_points,
+// default 1500 in SceneOptions::decades_apart()): how much the density of the film block's own tie
+// points limits the self-calibration.
 //
 // Prints one line per seed and variant on stderr and a Markdown table (medians over the seeds) on
 // stdout. Not a test: docs/adjustment.md holds its output.
@@ -194,6 +197,7 @@ int main(int argc, char** argv) {
   double max_relief = 0.0;
   int cell = 0;  // 0: the library's default
   int e1_rows = 0, e1_columns = 0;  // 0: the scene's default
+  int e1_ties = -1;                   // < 0: the scene's default
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     const auto value = [&]() -> std::string {
@@ -211,10 +215,13 @@ int main(int argc, char** argv) {
       const std::string b = value();
       if (std::sscanf(b.c_str(), "%dx%d", &e1_rows, &e1_columns) != 2 || e1_rows < 1 || e1_columns < 1)
         throw std::runtime_error("--e1-block needs RxC, e.g. 3x3, got " + b);
+    } else if (a == "--e1-ties") {
+      e1_ties = std::stoi(value());
+      if (e1_ties < 0) throw std::runtime_error("--e1-ties needs a count >= 0");
     } else {
       std::fprintf(stderr,
                    "usage: adjustment_eval [--seeds N] [--first-seed S] [--threads N] [--no-colmap] [--colmap-work DIR] "
-                   "[--max-relief G] [--cell PX] [--e1-block RxC]\n");
+                   "[--max-relief G] [--cell PX] [--e1-block RxC] [--e1-ties N]\n");
       return 1;
     }
   }
@@ -230,6 +237,7 @@ int main(int argc, char** argv) {
       scene_options.epochs[0].rows = e1_rows;
       scene_options.epochs[0].columns = e1_columns;
     }
+    if (e1_ties >= 0) scene_options.epochs[0].tie_points = e1_ties;
     auto t0 = std::chrono::steady_clock::now();
     const Scene scene = generate_scene(scene_options);
     const SyntheticEpoch& e1 = scene.epochs[0];

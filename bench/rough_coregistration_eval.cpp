@@ -10,6 +10,9 @@
 // and the real pair Mount St. Helens 2000 (10 m, whole crater) / 2004-10-13 (2 m, dome area only),
 // each whole, joins the sources (alternately as master and as secondary).
 //
+// --verbose prints a line per case and configuration: the scale hypotheses, and for the correlation
+// fallback where its winner puts the master's centre against the truth and why it was refused.
+//
 // --tilt DEG sets the largest tilt between the frames (CoregistrationCaseOptions::tilt_max_deg, 2 by
 // default); the other draws of each case stay the same.
 //
@@ -367,11 +370,19 @@ int main(int argc, char** argv) {
             hyps += " " + h.hypothesis.name() + ":" + std::to_string(h.inliers) + "/" + std::to_string(h.required_inliers) +
                     (h.success ? "+" : "") + "@" + std::to_string(h.seconds).substr(0, 4) + "s";
           std::fprintf(stderr, "  scale hypotheses (inliers/required@time):%s\n", hyps.c_str());
-          if (r.correlation_ran)
-            std::fprintf(stderr, "  correlation fallback: %s, ZNCC %.3f, runner-up %.3f, %zu hypotheses, %.2f s (coarse %.2f, refine %.2f)\n",
+          if (r.correlation_ran) {
+            // Where the search's winner puts the master's centre, against the truth (secondary px): tells
+            // a right answer the tests refused from a wrong one they stopped.
+            const Eigen::Vector2d centre(0.5 * (c.master.width() - 1), 0.5 * (c.master.height() - 1));
+            const Eigen::Vector2d w1 = c.master.pixel_to_world(centre);
+            const double z1 = c.master.height_at_pixel(centre);
+            const Eigen::Vector3d x2 = c.secondary_from_master(Eigen::Vector3d(w1.x(), w1.y(), std::isnan(z1) ? 0.0 : z1));
+            const double off = (c.secondary.world_to_pixel(x2.head<2>()) - r.correlation(centre)).norm();
+            std::fprintf(stderr, "  correlation fallback: %s, ZNCC %.3f, runner-up %.3f, %zu hypotheses, %.2f s (coarse %.2f, refine %.2f); winner %.1f secondary px from the truth; %s\n",
                          r.correlation_used ? "used" : "not used", r.correlation.score, r.correlation.runner_up,
                          r.correlation.hypotheses, r.seconds.correlation, r.correlation.seconds.coarse,
-                         r.correlation.seconds.refine);
+                         r.correlation.seconds.refine, off, r.correlation.message.c_str());
+          }
           std::fprintf(stderr, "case %zu %-13s overlap %.2f rot %6.1f scale %.2f | %-32s %s err %8.2f cells, %4zu/%5zu in %.1f s | rms3d %.2f cells, 3D inliers %zu/%zu, trust %s | %s\n",
                        k, source_name.c_str(), c.overlap, c.rotation_deg, c.scale, config.name.c_str(),
                        o.success ? "OK  " : "FAIL", o.error_cells, o.inliers, o.matches, o.seconds, r.rms_3d_cells,
