@@ -22,7 +22,8 @@
 // length, principal point and distortion (eval/distortion_difference.hpp) against the true camera,
 // and the whole camera with the focal length and principal point refitted (refit_*) and beyond
 // what a change of pose absorbs over flat ground (beyond_pose_*), and the distortion's 1-sigma the
-// adjustment predicts from its covariance (eval/distortion_precision.hpp).
+// adjustment predicts from its covariance (eval/distortion_precision.hpp). The distortion is also
+// split in its owners: the camera's lens part (K1-K3, P1, P2) and each image's affine part (B1, B2).
 // The sparse DoD (eval/dod.hpp): epoch 1's tie points triangulated with each orientation against
 // epoch 2's DSM, in metres (it includes the real change of the landscape, as the paper's does).
 // Two oracles bound what the matches and the reference cost: "oracle e2 frames" holds the true
@@ -100,6 +101,12 @@ struct Outcome {
   // The adjustment's own prediction: epoch 1's distortion 1-sigma over the image from the covariance
   // of its camera (eval/distortion_precision.hpp); not valid without a covariance.
   DistortionPrecision predicted;
+  // The distortion split in its two owners: the camera's lens part (radial and decentring, B1 = B2 = 0
+  // on both sides) and each image's affine part (the truth's lens part with that image's B1, B2),
+  // worst over the image; the affine part's worst image and its median over the images.
+  double lens_max_px = std::nan("");
+  double affine_worst_image_px = std::nan("");
+  double affine_median_image_px = std::nan("");
   double seconds = 0.0;
   DodReport dod;  ///< epoch 1's tie points against epoch 2's DSM, world metres
 };
@@ -121,6 +128,21 @@ void judge(Outcome& o, const Scene& scene, const Frames& epoch1, const std::vect
   o.focal_error_px = std::abs(camera.focal() - truth.focal());
   o.pp_error_px = (camera.principal_point() - truth.principal_point()).norm();
   o.distortion = distortion_difference(camera, truth);
+  const auto with_affine = [](const Camera<FraserAffine>& c, double b1, double b2) {
+    Camera<FraserAffine> out = c;
+    Camera<FraserAffine>::Params p = c.params();
+    p[5] = b1;
+    p[6] = b2;
+    out.set_params(p);
+    return out;
+  };
+  o.lens_max_px = distortion_difference(with_affine(camera, 0.0, 0.0), with_affine(truth, 0.0, 0.0)).max_px;
+  std::vector<double> affine;
+  for (const Frame<FraserAffine>& frame : epoch1)
+    affine.push_back(
+        distortion_difference(with_affine(truth, frame.camera().params()[5], frame.camera().params()[6]), truth).max_px);
+  o.affine_worst_image_px = *std::max_element(affine.begin(), affine.end());
+  o.affine_median_image_px = median(affine);
   o.on_observed = distortion_difference_at(camera, truth, observed);
   // The sparse DoD: epoch 1's tie points triangulated with these frames against epoch 2's DSM (the
   // SfM's, in its frame), heights brought to metres by the frame's scale.
@@ -405,12 +427,13 @@ int main(int argc, char** argv) {
       const Outcome& o = results[v].back();
       std::fprintf(stderr,
                    "  %-10s  check points %zu: RMS %.2f m = %.2f GSD, |mu| X %.2f Y %.2f Z %.2f m; f %+.2f, pp %.2f, "
-                   "distortion %.2f px (RMS %.2f), over the observed pixels %.2f (RMS %.2f), with f and pp refitted %.2f (RMS %.2f), beyond a pose %.2f (RMS %.2f), predicted 1-sigma %.2f (RMS %.2f); DoD mu %.2f sigma %.2f mean |dz| %.2f m; %.2f s\n",
+                   "distortion %.2f px (RMS %.2f), over the observed pixels %.2f (RMS %.2f), with f and pp refitted %.2f (RMS %.2f), beyond a pose %.2f (RMS %.2f), predicted 1-sigma %.2f (RMS %.2f), lens part %.2f, affine part worst image %.2f median image %.2f; DoD mu %.2f sigma %.2f mean |dz| %.2f m; %.2f s\n",
                    v, o.check.num_used, o.check.rms_3d_m, o.check.rms_3d_gsd, o.check.axes_m[0].mean_abs,
                    o.check.axes_m[1].mean_abs, o.check.axes_m[2].mean_abs, o.focal_error_px, o.pp_error_px,
                    o.distortion.max_px, o.distortion.rms_px, o.on_observed.max_px, o.on_observed.rms_px,
                    o.distortion.refit_max_px, o.distortion.refit_rms_px, o.distortion.beyond_pose_max_px,
-                   o.distortion.beyond_pose_rms_px, o.predicted.max_sigma_px, o.predicted.rms_sigma_px, o.dod.statistics.mean, o.dod.statistics.sigma,
+                   o.distortion.beyond_pose_rms_px, o.predicted.max_sigma_px, o.predicted.rms_sigma_px, o.lens_max_px,
+                   o.affine_worst_image_px, o.affine_median_image_px, o.dod.statistics.mean, o.dod.statistics.sigma,
                    o.dod.statistics.mean_abs, o.seconds);
     }
   }
@@ -419,12 +442,13 @@ int main(int argc, char** argv) {
               seeds, static_cast<unsigned long long>(first_seed), coregistered, median(inter_matches), median(inter_correct));
   std::printf("| variant | seeds | check-point RMS 3D (m) | in GSD | mean abs error X / Y / Z (m) | sigma X / Y / Z (m) | "
               "focal error (px) | principal point error (px) | distortion, worst over the image (px) | distortion over the "
-              "observed pixels, worst / RMS (px) | camera with f and pp refitted, worst / RMS (px) | camera beyond a pose, worst / RMS (px) | distortion 1-sigma predicted, worst / RMS (px) | DoD mu / sigma / mean abs (m) | time (s) |\n");
-  std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+              "observed pixels, worst / RMS (px) | camera with f and pp refitted, worst / RMS (px) | camera beyond a pose, worst / RMS (px) | distortion 1-sigma predicted, worst / RMS (px) | lens part, worst (px) | affine part, worst image / median image (px) | DoD mu / sigma / mean abs (m) | time (s) |\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (const char* v : kVariants) {
     const auto it = results.find(v);
     if (it == results.end()) continue;
-    std::vector<double> rms, gsd, mx, my, mz, sx, sy, sz, f, pp, d, t, dm, ds, da;
+    std::vector<double> rms, gsd, mx, my, mz, sx, sy, sz, f, pp, d, t, dm, ds, da, lens;
+    WorstAndRms affine_part;  // worst image / median image, in the same two-number cell
     WorstAndRms observed_distortion, refitted, beyond_pose, predicted;
     for (const Outcome& o : it->second) {
       if (!o.ran || !o.check.success) continue;
@@ -444,16 +468,19 @@ int main(int argc, char** argv) {
       beyond_pose.add(o.distortion.beyond_pose_max_px, o.distortion.beyond_pose_rms_px);
       // Only the combined adjustments have a covariance.
       if (o.predicted.valid) predicted.add(o.predicted.max_sigma_px, o.predicted.rms_sigma_px);
+      lens.push_back(o.lens_max_px);
+      affine_part.add(o.affine_worst_image_px, o.affine_median_image_px);
       t.push_back(o.seconds);
       dm.push_back(o.dod.statistics.mean);
       ds.push_back(o.dod.statistics.sigma);
       da.push_back(o.dod.statistics.mean_abs);
     }
-    std::printf("| %s | %zu | %s | %s | %s / %s / %s | %s / %s / %s | %s | %s | %s | %s | %s | %s | %s | %s / %s / %s | %s |\n", v, rms.size(),
+    std::printf("| %s | %zu | %s | %s | %s / %s / %s | %s / %s / %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s / %s / %s | %s |\n", v, rms.size(),
                 fmt(median(rms)).c_str(), fmt(median(gsd)).c_str(), fmt(median(mx)).c_str(), fmt(median(my)).c_str(),
                 fmt(median(mz)).c_str(), fmt(median(sx)).c_str(), fmt(median(sy)).c_str(), fmt(median(sz)).c_str(),
                 fmt(median(f)).c_str(), fmt(median(pp)).c_str(), fmt(median(d)).c_str(), observed_distortion.cell().c_str(),
-                refitted.cell().c_str(), beyond_pose.cell().c_str(), predicted.cell().c_str(), fmt(median(dm)).c_str(),
+                refitted.cell().c_str(), beyond_pose.cell().c_str(), predicted.cell().c_str(), fmt(median(lens)).c_str(),
+                affine_part.cell().c_str(), fmt(median(dm)).c_str(),
                 fmt(median(ds)).c_str(), fmt(median(da)).c_str(), fmt(median(t)).c_str());
   }
   return 0;
