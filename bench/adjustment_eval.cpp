@@ -128,19 +128,14 @@ void judge(Outcome& o, const Scene& scene, const Frames& epoch1, const std::vect
   o.focal_error_px = std::abs(camera.focal() - truth.focal());
   o.pp_error_px = (camera.principal_point() - truth.principal_point()).norm();
   o.distortion = distortion_difference(camera, truth);
-  const auto with_affine = [](const Camera<FraserAffine>& c, double b1, double b2) {
-    Camera<FraserAffine> out = c;
-    Camera<FraserAffine>::Params p = c.params();
-    p[5] = b1;
-    p[6] = b2;
-    out.set_params(p);
-    return out;
+  // `lens`'s f, principal point and lens part with the affine block `affine` (B1, B2, px).
+  const auto with_affine = [](const Camera<FraserAffine>& lens, const std::array<double, kAffineBlockSize>& affine) {
+    return camera_from_blocks(fraser_camera_block(lens).data(), affine.data(), lens.width(), lens.height());
   };
-  o.lens_max_px = distortion_difference(with_affine(camera, 0.0, 0.0), with_affine(truth, 0.0, 0.0)).max_px;
+  o.lens_max_px = distortion_difference(with_affine(camera, {}), with_affine(truth, {})).max_px;
   std::vector<double> affine;
   for (const Frame<FraserAffine>& frame : epoch1)
-    affine.push_back(
-        distortion_difference(with_affine(truth, frame.camera().params()[5], frame.camera().params()[6]), truth).max_px);
+    affine.push_back(distortion_difference(with_affine(truth, affine_block(frame.camera())), truth).max_px);
   o.affine_worst_image_px = *std::max_element(affine.begin(), affine.end());
   o.affine_median_image_px = median(affine);
   o.on_observed = distortion_difference_at(camera, truth, observed);
@@ -208,14 +203,14 @@ std::string fmt(double v, const char* f = "%.2f") {
   return b;
 }
 
-// A table cell "worst / RMS" of medians over the seeds.
-struct WorstAndRms {
-  std::vector<double> worst, rms;
-  void add(double w, double r) {
-    worst.push_back(w);
-    rms.push_back(r);
+// A table cell "a / b" of two medians over the seeds (worst / RMS, or worst image / median image).
+struct MedianPair {
+  std::vector<double> first, second;
+  void add(double a, double b) {
+    first.push_back(a);
+    second.push_back(b);
   }
-  std::string cell() const { return fmt(median(worst)) + " / " + fmt(median(rms)); }
+  std::string cell() const { return fmt(median(first)) + " / " + fmt(median(second)); }
 };
 
 }  // namespace
@@ -448,8 +443,8 @@ int main(int argc, char** argv) {
     const auto it = results.find(v);
     if (it == results.end()) continue;
     std::vector<double> rms, gsd, mx, my, mz, sx, sy, sz, f, pp, d, t, dm, ds, da, lens;
-    WorstAndRms affine_part;  // worst image / median image, in the same two-number cell
-    WorstAndRms observed_distortion, refitted, beyond_pose, predicted;
+    MedianPair observed_distortion, refitted, beyond_pose, predicted;  // worst / RMS
+    MedianPair affine_part;                                            // worst image / median image
     for (const Outcome& o : it->second) {
       if (!o.ran || !o.check.success) continue;
       rms.push_back(o.check.rms_3d_m);
