@@ -45,6 +45,7 @@
 // stdout. Not a test: docs/adjustment.md holds its output.
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -55,6 +56,7 @@
 #include <vector>
 
 #include <diachron/adjustment/bundle_adjustment.hpp>
+#include <diachron/adjustment/reprojection_error.hpp>
 #include <diachron/adjustment/tracks.hpp>
 #include <diachron/adjustment/triangulation.hpp>
 #include <diachron/eval/check_points.hpp>
@@ -213,9 +215,8 @@ struct MedianPair {
   std::string cell() const { return fmt(median(first)) + " / " + fmt(median(second)); }
 };
 
-}  // namespace
-
-int main(int argc, char** argv) {
+// The whole run; main() turns what it throws (a bad argument, a failed scene) into one line and exit 1.
+int run(int argc, char** argv) {
   int seeds = 5;
   std::uint64_t first_seed = 0;
   std::size_t threads = 0;
@@ -479,4 +480,15 @@ int main(int argc, char** argv) {
                 fmt(median(ds)).c_str(), fmt(median(da)).c_str(), fmt(median(t)).c_str());
   }
   return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    return run(argc, argv);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "adjustment_eval: %s\n", e.what());
+    return 1;
+  }
 }
