@@ -3,7 +3,8 @@
 // and GDAL: the Helmert RANSAC needs Eigen and nanoflann only. With CONSUMER_UMBRELLA (the consumer
 // of every component) it includes the umbrella header, which must not pull OpenCV, Ceres or GDAL
 // either; the other consumers include only what they use, since parsing the umbrella is most of a
-// consumer's build and one check of it is enough.
+// consumer's build and one check of it is enough. This is the umbrella's check: an outside project
+// without our precompiled header, so a header it lists that does not stand alone fails here too.
 #include <cstdio>
 #include <vector>
 
@@ -13,6 +14,12 @@
 #include <diachron/core/random.hpp>
 #include <diachron/geometry/rotation.hpp>
 #include <diachron/robust/robust_estimation.hpp>
+#endif
+
+#ifdef CONSUMER_UMBRELLA
+// The umbrella exposes the concept models.
+static_assert(diachron::is_estimator_v<diachron::Similarity2Estimator>);
+static_assert(diachron::is_estimator_v<diachron::Helmert3Estimator>);
 #endif
 
 #if defined(CV_VERSION) || defined(CERES_VERSION_STRING) || defined(GDAL_RELEASE_NAME)
