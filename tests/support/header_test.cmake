@@ -6,10 +6,11 @@
 #
 # The building blocks (core/, geometry/, robust/, camera/, terrain/, eval/: small headers, where the
 # Eigen modules are chosen; a header there that includes a composed header, as eval/match_truth.hpp
-# includes synth/, counts as composed) are also link-checked: GCC's -fkeep-inline-functions makes it emit every
-# inline function of the header, used or not, so a call whose definition lives in a header that is
-# not included (Eigen's inverse() or determinant() with only <Eigen/Core>: declared there, defined
-# in <Eigen/LU>) is an undefined reference at link time. (Function templates are checked only where
+# includes synth/, counts as composed, since linking it would emit the composed code again) are also
+# link-checked: GCC's -fkeep-inline-functions makes it emit every inline function of the header, used
+# or not, so a call whose definition lives in a header that is not included (Eigen's inverse() or
+# determinant() with only <Eigen/Core>: declared there, defined in <Eigen/LU>) is an undefined
+# reference at link time. (Function templates are checked only where
 # the header itself instantiates them; other compilers get the compile check only.) Emitting every
 # inline function of Eigen, OpenCV and Ceres doubles a program's build, and the composed headers
 # (matching/ to pipeline/, synth/, vision/, io/, adjustment/) parse for 10 to 20 s each, so they get
