@@ -12,8 +12,7 @@ echo "== Release build and tests"
 # The benchmarks are configured but not built here: each instantiates the whole pipeline (about a
 # minute of compiler time apiece, a quarter of a CI run for the dozen of them). Build one with
 # cmake --build build/release --target NAME (docs/benchmarks.md).
-# The tests at -O1 (DIACHRON_TEST_COMPILE_OPTIONS): a fifth less compile time than -O3; the examples,
-# which examples/match_epochs_adjust runs end to end, stay at -O3.
+# The test programs at -O1, the examples at -O3 (why: DIACHRON_TEST_COMPILE_OPTIONS in tests/CMakeLists.txt).
 cmake -S "$root" -B "$root/build/release" -DCMAKE_BUILD_TYPE=Release -DDIACHRON_BENCH_IN_ALL=OFF \
       -DDIACHRON_TEST_COMPILE_OPTIONS=-O1 >/dev/null
 cmake --build "$root/build/release" -j "$jobs"

@@ -10,9 +10,8 @@
 # link-checked: GCC's -fkeep-inline-functions makes it emit every inline function of the header, used
 # or not, so a call whose definition lives in a header that is not included (Eigen's inverse() or
 # determinant() with only <Eigen/Core>: declared there, defined in <Eigen/LU>) is an undefined
-# reference at link time. (Function templates are checked only where
-# the header itself instantiates them; other compilers get the compile check only.) Emitting every
-# inline function of Eigen, OpenCV and Ceres doubles a program's build, and the composed headers
+# reference at link time. (Function templates are checked only where the header itself instantiates
+# them; other compilers get the compile check only.) Emitting every inline function of Eigen, OpenCV and Ceres doubles a program's build, and the composed headers
 # (matching/ to pipeline/, synth/, vision/, io/, adjustment/) parse for 10 to 20 s each, so they get
 # the compile check only: with 90 headers on 2 cores, the link check of every one of them took 6
 # of CI's 30 minutes. DIACHRON_TEST_HEADERS_LINK_ALL=ON link-checks them too. Each program links
@@ -37,7 +36,9 @@ file(GLOB_RECURSE _headers CONFIGURE_DEPENDS RELATIVE ${_header_root} ${_header_
 set(_header_dir ${CMAKE_CURRENT_BINARY_DIR}/header_test)
 add_custom_target(diachron_header_checks)
 
-# Composed: in a composed folder, or including a composed header (directly or through another).
+# Composed: in a composed folder, or including a composed header (directly or through another). The
+# includes are read when CMake configures: a header edited to include a composed one changes class at
+# the next configure (CI always configures a fresh tree).
 set(_composed "")
 foreach(header IN LISTS _headers)
   if(NOT header MATCHES "^diachron/(core|geometry|robust|camera|terrain|eval)/")

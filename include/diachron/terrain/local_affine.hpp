@@ -27,8 +27,6 @@ std::optional<Eigen::Matrix2d> local_affine(const Transfer& transfer, const Eige
   static_assert(check_transfer<Transfer>());
   DIACHRON_CHECK(step_px > 0.0 && std::isfinite(step_px), "local_affine: step_px must be positive, got " << step_px);
   Eigen::Matrix2d jacobian;
-  std::optional<Eigen::Vector2d> centre;  // evaluated only when a side fails
-  bool centre_done = false;
   for (int axis = 0; axis < 2; ++axis) {
     const Eigen::Vector2d h = Eigen::Vector2d::Unit(axis) * step_px;
     const std::optional<Eigen::Vector2d> plus = transfer(Eigen::Vector2d(px + h));
@@ -38,10 +36,9 @@ std::optional<Eigen::Matrix2d> local_affine(const Transfer& transfer, const Eige
       continue;
     }
     if (!plus && !minus) return std::nullopt;
-    if (!centre_done) {
-      centre = transfer(px);
-      centre_done = true;
-    }
+    // One side fails: a one-sided difference from px, evaluated only here (rarely twice: at a corner
+    // of the domain, where both axes fail on one side).
+    const std::optional<Eigen::Vector2d> centre = transfer(px);
     if (!centre) return std::nullopt;
     jacobian.col(axis) = plus ? Eigen::Vector2d((*plus - *centre) / step_px) : Eigen::Vector2d((*centre - *minus) / step_px);
   }
