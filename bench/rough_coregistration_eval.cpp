@@ -13,6 +13,15 @@
 // --verbose prints a line per case and configuration: the scale hypotheses, and for the correlation
 // fallback where its winner puts the master's centre against the truth and why it was refused.
 //
+// --null turns every case into one without an answer, to calibrate the correlation fallback's
+// margin: each source DEM is cut in a west and an east half, and a case drawn on one half gets the
+// secondary of a case drawn on the other (the same kind of terrain, moved, noised and holed as the
+// cases with an answer, but elsewhere). The real pair, used whole, keeps the 10 m DEM without the
+// 2 m DEM's footprint and a margin of a tenth of its size (skipped where nothing is left).
+// Every success reported on them is wrong. With or without --null, a table at the end says, for
+// margins from 0 to 0.25, how many of the fallback's refused winners each margin would accept, and
+// how many of them are right.
+//
 // --tilt DEG sets the largest tilt between the frames (CoregistrationCaseOptions::tilt_max_deg, 2 by
 // default); the other draws of each case stay the same.
 //
@@ -21,7 +30,7 @@
 //
 //   rough_coregistration_eval [--data DIR] [--models DIR] [--cases N] [--overlap MIN MAX]
 //                             [--configs C1,C2,...] [--threads N] [--seed S] [--max-features N]
-//                             [--gaps F1,F2,...] [--only SOURCE] [--tilt DEG] [--verbose]
+//                             [--gaps F1,F2,...] [--only SOURCE] [--tilt DEG] [--null] [--verbose]
 //
 // A configuration is IMAGE/MATCHER/TILING/ROTATIONS, e.g. relief/sift/tiles/rot:
 //   IMAGE     stretch2 stretch5 wallis2 wallis5 hillshade multihillshade slope relief
@@ -40,6 +49,7 @@
 #include <cmath>
 #include <cstdio>
 #include <iostream>
+#include <limits>
 #include <map>
 #include <sstream>
 #include <string>
@@ -205,6 +215,54 @@ struct Outcome {
   double seconds = 0.0;
 };
 
+// A fallback winner that the margin test alone refused (or accepted): its margin, and whether it
+// is right. Refused for another reason (score, gain): not recorded.
+struct MarginRecord {
+  double margin = 0.0;
+  bool right = false;
+};
+
+// The columns of a north-up DSM west (or east) of world X `split`.
+Dsm half_of(const Dsm& dsm, double split, bool west) {
+  const GeoTransform& t = dsm.transform();
+  DIACHRON_CHECK(t.c[2] == 0.0 && t.c[4] == 0.0 && t.c[1] > 0.0, "--null needs north-up DEMs");
+  const int cut = std::clamp(static_cast<int>(std::lround(t.world_to_pixel(Eigen::Vector2d(split, t.c[3])).x())), 1,
+                             dsm.width() - 1);
+  const int x0 = west ? 0 : cut, w = west ? cut : dsm.width() - cut;
+  Raster<float> h(w, dsm.height());
+  for (int y = 0; y < dsm.height(); ++y)
+    for (int x = 0; x < w; ++x) h(x, y) = dsm.heights()(x0 + x, y);
+  GeoTransform shifted = t;
+  shifted.c[0] += x0 * t.c[1];
+  return Dsm(std::move(h), shifted, dsm.crs());
+}
+
+// The case's secondary without the ground near the master's true footprint (see --null); false
+// when less than a quarter of its valid cells is left.
+bool remove_true_overlap(CoregistrationCase& c) {
+  const Helmert3 master_from_secondary = c.secondary_from_master.inverse();
+  const double margin = 0.1 * std::max(c.master.width(), c.master.height());
+  Raster<float> h = c.secondary.heights();
+  std::size_t before = 0, after = 0;
+  for (int y = 0; y < h.height(); ++y)
+    for (int x = 0; x < h.width(); ++x) {
+      if (std::isnan(h(x, y))) continue;
+      ++before;
+      const Eigen::Vector2d w = c.secondary.pixel_to_world(Eigen::Vector2d(x, y));
+      const Eigen::Vector3d x1 = master_from_secondary(Eigen::Vector3d(w.x(), w.y(), h(x, y)));
+      const Eigen::Vector2d p = c.master.world_to_pixel(x1.head<2>());
+      if (p.x() >= -margin && p.y() >= -margin && p.x() <= c.master.width() - 1 + margin &&
+          p.y() <= c.master.height() - 1 + margin)
+        h(x, y) = std::numeric_limits<float>::quiet_NaN();
+      else
+        ++after;
+    }
+  if (4 * after < before) return false;
+  c.secondary = Dsm(std::move(h), c.secondary.transform(), c.secondary.crs());
+  c.overlap = 0.0;
+  return true;
+}
+
 double median(std::vector<double> v) {
   if (v.empty()) return std::nan("");
   std::sort(v.begin(), v.end());
@@ -219,7 +277,7 @@ int main(int argc, char** argv) {
   int max_features = 2000;
   double overlap_min = 0.3, overlap_max = 1.0;
   std::uint64_t seed = 1;
-  bool verbose = false, synthetic = false;
+  bool verbose = false, synthetic = false, null_cases = false;
   std::vector<int> gaps;  // resolution-gap factors; empty: no gap cases
   std::string only;       // run only the cases whose source name contains this (same seeds as the full run)
   std::string configs_text = "stretch2/sift/whole/norot,relief/sift/tiles/rot";
@@ -244,6 +302,7 @@ int main(int argc, char** argv) {
     else if (a == "--verbose") verbose = true;
     else if (a == "--only") only = next();
     else if (a == "--synthetic") synthetic = true;
+    else if (a == "--null") null_cases = true;
     else if (a == "--tilt") tilt_max_deg = std::stod(next());
     else if (a == "--gaps") {
       std::stringstream gs(next());
@@ -252,7 +311,7 @@ int main(int argc, char** argv) {
     else {
       std::cerr << "usage: rough_coregistration_eval [--data DIR] [--models DIR] [--cases N] [--overlap MIN MAX]\n"
                    "       [--configs IMAGE/MATCHER/TILING/ROTATIONS,...] [--threads N] [--seed S] [--gaps F1,F2,...]\n"
-                   "       [--only SOURCE] [--tilt DEG] [--synthetic] [--verbose]\n";
+                   "       [--only SOURCE] [--tilt DEG] [--synthetic] [--null] [--verbose]\n";
       return 1;
     }
   }
@@ -315,6 +374,8 @@ int main(int argc, char** argv) {
     case_options.tilt_max_deg = tilt_max_deg;
     std::map<std::string, std::vector<Outcome>> results;
     std::map<std::string, std::map<std::string, std::pair<int, int>>> per_source;
+    std::map<std::string, std::vector<MarginRecord>> margins;
+    std::size_t skipped = 0;
     for (std::size_t k = 0; k < cases; ++k) {
       CoregistrationCase c;
       std::string source_name = "synthetic";
@@ -334,6 +395,23 @@ int main(int argc, char** argv) {
         source_name = src.name;
         case_options.crop_windows = src.crop;
         c = make_coregistration_case(src.master, src.secondary, case_options, seed + k);
+        if (null_cases && src.crop) {
+          // Two draws on the two halves of the source (west and east of the middle of the master DEM):
+          // this case's master and the other half's secondary show the same kind of terrain, apart.
+          const double split = src.master.pixel_to_world(Eigen::Vector2d(0.5 * (src.master.width() - 1), 0.0)).x();
+          const bool west = k % 2 == 0;
+          const CoregistrationCase a = make_coregistration_case(half_of(src.master, split, west),
+                                                                half_of(src.secondary, split, west), case_options, seed + k);
+          const CoregistrationCase b = make_coregistration_case(half_of(src.master, split, !west),
+                                                                half_of(src.secondary, split, !west), case_options,
+                                                                seed + k + 100000);
+          c = a;
+          c.secondary = b.secondary;
+          c.overlap = 0.0;
+        } else if (null_cases && !remove_true_overlap(c)) {
+          ++skipped;
+          continue;
+        }
       }
       // Success is judged in secondary cells; with a resolution gap, in cells of the coarser DSM
       // (the master's cell brought to world units by the frame's scale): a match is no more precise
@@ -356,11 +434,31 @@ int main(int argc, char** argv) {
         o.matches = r.matches_2d;
         const HelmertError e = helmert_error_on_overlap(r.epoch2_from_epoch1, c);
         o.error_cells = e.valid ? e.rms / cell : std::numeric_limits<double>::infinity();
-        o.success = r.success && e.valid && e.rms < 2.0 * cell;
+        o.success = !null_cases && r.success && e.valid && e.rms < 2.0 * cell;
         o.reported = r.success;
         o.trust = r.trust;
         o.rms_3d_cells = r.rms_3d_cells;
         results[config.name].push_back(o);
+        // Where the fallback's winner puts the master's centre, against the truth (secondary px): tells a
+        // right answer the tests refused from a wrong one they stopped. A hole at the centre takes the
+        // mean height: the truth's tilt moves X/Y with the height (2 degrees at 2000 m: 70 m).
+        double fallback_off = std::numeric_limits<double>::quiet_NaN();
+        if (r.correlation_ran) {
+          const Eigen::Vector2d centre(0.5 * (c.master.width() - 1), 0.5 * (c.master.height() - 1));
+          const Eigen::Vector2d w1 = c.master.pixel_to_world(centre);
+          const double z1 = c.master.height_at_pixel(centre);
+          const Eigen::Vector3d x2 =
+              c.secondary_from_master(Eigen::Vector3d(w1.x(), w1.y(), std::isnan(z1) ? c.master.statistics().mean : z1));
+          fallback_off = (c.secondary.world_to_pixel(x2.head<2>()) - r.correlation(centre)).norm();
+          // Right: within 2 coarse cells of the truth.
+          const DsmCorrelationSearchOptions& so = config.options.correlation_search;
+          const DsmCorrelationResult& cr = r.correlation;
+          const bool score_ok = cr.score >= so.min_score;
+          const bool gain_ok = std::abs(std::log(cr.height_gain / cr.expected_gain)) <= std::log(so.max_gain_factor);
+          if (score_ok && gain_ok)
+            margins[config.name].push_back({cr.strength - cr.runner_up_strength,
+                                            !null_cases && fallback_off <= 2.0 * cell / c.secondary.min_cell_size()});
+        }
         auto& ps = per_source[config.name][source_name];
         ps.first += o.success;
         ps.second += 1;
@@ -371,19 +469,10 @@ int main(int argc, char** argv) {
                     (h.success ? "+" : "") + "@" + std::to_string(h.seconds).substr(0, 4) + "s";
           std::fprintf(stderr, "  scale hypotheses (inliers/required@time):%s\n", hyps.c_str());
           if (r.correlation_ran) {
-            // Where the search's winner puts the master's centre, against the truth (secondary px): tells
-            // a right answer the tests refused from a wrong one they stopped. A hole at the centre takes
-            // the mean height: the truth's tilt moves X/Y with the height (2 degrees at 2000 m: 70 m).
-            const Eigen::Vector2d centre(0.5 * (c.master.width() - 1), 0.5 * (c.master.height() - 1));
-            const Eigen::Vector2d w1 = c.master.pixel_to_world(centre);
-            const double z1 = c.master.height_at_pixel(centre);
-            const Eigen::Vector3d x2 =
-                c.secondary_from_master(Eigen::Vector3d(w1.x(), w1.y(), std::isnan(z1) ? c.master.statistics().mean : z1));
-            const double off = (c.secondary.world_to_pixel(x2.head<2>()) - r.correlation(centre)).norm();
             std::fprintf(stderr, "  correlation fallback: %s, ZNCC %.3f, runner-up %.3f, %zu hypotheses, %.2f s (coarse %.2f, refine %.2f); winner %.1f secondary px from the truth; %s\n",
                          r.correlation_used ? "used" : "not used", r.correlation.score, r.correlation.runner_up,
                          r.correlation.hypotheses, r.seconds.correlation, r.correlation.seconds.coarse,
-                         r.correlation.seconds.refine, off, r.correlation.message.c_str());
+                         r.correlation.seconds.refine, fallback_off, r.correlation.message.c_str());
           }
           std::fprintf(stderr, "case %zu %-13s overlap %.2f rot %6.1f scale %.2f | %-32s %s err %8.2f cells, %4zu/%5zu in %.1f s | rms3d %.2f cells, 3D inliers %zu/%zu, trust %s | %s\n",
                        k, source_name.c_str(), c.overlap, c.rotation_deg, c.scale, config.name.c_str(),
@@ -429,6 +518,25 @@ int main(int argc, char** argv) {
         }
       }
       std::printf("| %s | %d | %d | %d | %d | %d |\n", config.name.c_str(), reported, right, wrong, caught, lost);
+    }
+    // The correlation fallback's margin test: how many refused or accepted winners (those that
+    // pass min_score and the gain test) each margin would accept, and how many of them are right.
+    std::printf("\n%s cases skipped (too little ground left without the overlap)\n", std::to_string(skipped).c_str());
+    std::printf("\n| configuration | fallback winners passing score and gain | margin >= 0 right / wrong | >= 0.05 | >= 0.10 | >= 0.15 | >= 0.20 | >= 0.25 | largest margin of a wrong winner |\n");
+    std::printf("|---|---|---|---|---|---|---|---|---|\n");
+    for (const auto& config : configs) {
+      const auto& v = margins[config.name];
+      std::printf("| %s | %zu |", config.name.c_str(), v.size());
+      double worst = -std::numeric_limits<double>::infinity();
+      for (const MarginRecord& m : v)
+        if (!m.right) worst = std::max(worst, m.margin);
+      for (double t : {0.0, 0.05, 0.10, 0.15, 0.20, 0.25}) {
+        int right = 0, wrong = 0;
+        for (const MarginRecord& m : v)
+          if (m.margin >= t) (m.right ? right : wrong) += 1;
+        std::printf(" %d / %d |", right, wrong);
+      }
+      std::printf(" %.3f |\n", worst);
     }
   } catch (const std::exception& e) {
     std::cerr << "rough_coregistration_eval: " << e.what() << "\n";

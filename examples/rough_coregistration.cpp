@@ -11,6 +11,7 @@
 // The composition it runs is pipeline/rough_coregistration.hpp; docs/rough-coregistration.md says
 // how its defaults were chosen.
 
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <iostream>
@@ -44,6 +45,8 @@ const char* kUsage =
     "  --no-tiling                           match the whole DSM images\n"
     "  --no-rotations                        try 0 degrees only\n"
     "  --no-scales                           no scale hypotheses (coarsened DSMs for resolution gaps)\n"
+    "  --fallback off|heights|gradient       dense correlation search when the features find nothing\n"
+    "                                        (small coarse DSMs against fine ones; default: the library's)\n"
     "  --threshold PX                        2D RANSAC threshold, DSM pixels (default 10)\n"
     "  --threads N                           worker threads, 0 = all cores (default 0)\n"
     "  --seed S                              random seed (default 0)\n"
@@ -87,7 +90,18 @@ void write_report(const std::string& path, const RoughCoregistrationReport& r, c
   }
   out << "],\n  \"stages\": {\"tentative_2d\": " << r.matches_2d << ", \"required_inliers_2d\": " << r.required_inliers_2d
       << ", \"inliers_2d\": " << r.inliers_2d.size() << ", \"lifted_3d\": " << r.lifted.size()
-      << ", \"inliers_3d\": " << r.inliers_3d.size() << ", \"rms_3d\": " << r.rms_3d << "},\n  \"seconds\": {\"images\": "
+      << ", \"inliers_3d\": " << r.inliers_3d.size() << ", \"rms_3d\": " << r.rms_3d << "},\n";
+  // The dense correlation fallback, when it ran: its winner and the tests that judged it.
+  const auto number = [](double v) { return std::isfinite(v) ? std::to_string(v) : std::string("null"); };
+  if (r.correlation_ran) {
+    const DsmCorrelationResult& c = r.correlation;
+    out << "  \"correlation_fallback\": {\"used\": " << (r.correlation_used ? "true" : "false")
+        << ", \"message\": " << quoted(c.message) << ", \"score\": " << number(c.score)
+        << ", \"strength\": " << number(c.strength) << ", \"runner_up_strength\": " << number(c.runner_up_strength)
+        << ", \"height_gain\": " << number(c.height_gain) << ", \"expected_gain\": " << number(c.expected_gain)
+        << ", \"hypotheses\": " << c.hypotheses << ", \"seconds\": " << r.seconds.correlation << "},\n";
+  }
+  out << "  \"seconds\": {\"images\": "
       << r.seconds.images << ", \"matching\": " << r.seconds.matching << ", \"ransac_2d\": " << r.seconds.ransac_2d
       << ", \"lift\": " << r.seconds.lift << ", \"helmert\": " << r.seconds.helmert << ", \"total\": " << r.seconds.total
       << "}\n}\n";
@@ -134,6 +148,13 @@ int main(int argc, char** argv) {
       } else if (a == "--no-tiling") options.use_tiling = false;
       else if (a == "--no-rotations") options.rotation_hypotheses = false;
       else if (a == "--no-scales") options.scale_hypotheses.enabled = false;
+      else if (a == "--fallback") {
+        const std::string f = value();
+        DIACHRON_CHECK(f == "off" || f == "heights" || f == "gradient",
+                       "--fallback wants off, heights or gradient, got '" << f << "'");
+        options.correlation_fallback = f != "off";
+        if (f != "off") options.correlation_search.signal = f == "heights" ? CorrelationSignal::heights : CorrelationSignal::gradient;
+      }
       else if (a == "--threshold") options.ransac_2d.threshold = std::stod(value());
       else if (a == "--threads") options.threads = std::stoul(value());
       else if (a == "--seed") options.ransac_2d.seed = std::stoull(value());

@@ -498,6 +498,8 @@ TEST_CASE("rough_coregistration: the correlation fallback answers when the featu
   CHECK(with.correlation_used);
   CHECK(with.correlation.score > 0.8);
   CHECK(with.seconds.correlation > 0.0);
+  // Its residuals cannot tell a right placement from a wrong one: never graded high.
+  CHECK(with.trust == diachron::RoughCoregistrationTrust::kLow);
   const diachron::HelmertError e = diachron::helmert_error_on_overlap(with.epoch2_from_epoch1, c);
   REQUIRE(e.valid);
   CHECK(e.rms < 1.0 * c.secondary.min_cell_size());
