@@ -118,7 +118,7 @@ Config parse_config(const std::string& text) {
   for (std::string p; std::getline(ss, p, '/');) parts.push_back(p);
   DIACHRON_CHECK(parts.size() == 4, "configuration '" << text << "' is not IMAGE/MATCHER/TILING/ROTATIONS");
   Config c{text, {}, parts[1]};
-  const std::string& image = parts[0];
+  std::string image = parts[0];
   auto& o = c.options;
   const std::string nomask = "-nomask";
   if (c.matcher.size() > nomask.size() && c.matcher.compare(c.matcher.size() - nomask.size(), nomask.size(), nomask) == 0) {
@@ -146,8 +146,15 @@ Config parse_config(const std::string& text) {
   }
   // corr: the default with the dense correlation fallback on (RoughCoregistrationOptions::
   // correlation_fallback), run when every feature hypothesis fails; corrgrad: the same correlating
-  // the heights' gradient (CorrelationSignal::gradient); corrgradN: also coarse_size_px N.
+  // the heights' gradient (CorrelationSignal::gradient); corrgradN: also coarse_size_px N. A suffix
+  // -samples (corr-samples, corrgrad-samples) weighs peaks by CorrelationStrength::samples.
   const std::string gradient = "corrgrad";
+  const std::string samples = "-samples";
+  if (image.rfind("corr", 0) == 0 && image.size() > samples.size() &&
+      image.compare(image.size() - samples.size(), samples.size(), samples) == 0) {
+    o.correlation_search.strength = CorrelationStrength::samples;
+    image.resize(image.size() - samples.size());
+  }
   if (image == "corr" || image.rfind(gradient, 0) == 0) {
     o.correlation_fallback = true;
     if (image != "corr") o.correlation_search.signal = CorrelationSignal::gradient;
@@ -215,8 +222,8 @@ struct Outcome {
   double seconds = 0.0;
 };
 
-// A fallback winner that the margin test alone refused (or accepted): its margin, and whether it
-// is right. Refused for another reason (score, gain): not recorded.
+// A winner of the correlation fallback that passed min_score and the gain test, so that its margin
+// over the runner-up decided: the margin, and whether the winner is right.
 struct MarginRecord {
   double margin = 0.0;
   bool right = false;
@@ -394,7 +401,7 @@ int main(int argc, char** argv) {
         if (!only.empty() && src.name.find(only) == std::string::npos) continue;
         source_name = src.name;
         case_options.crop_windows = src.crop;
-        c = make_coregistration_case(src.master, src.secondary, case_options, seed + k);
+        if (!(null_cases && src.crop)) c = make_coregistration_case(src.master, src.secondary, case_options, seed + k);
         if (null_cases && src.crop) {
           // Two draws on the two halves of the source (west and east of the middle of the master DEM):
           // this case's master and the other half's secondary show the same kind of terrain, apart.
@@ -521,7 +528,7 @@ int main(int argc, char** argv) {
     }
     // The correlation fallback's margin test: how many refused or accepted winners (those that
     // pass min_score and the gain test) each margin would accept, and how many of them are right.
-    std::printf("\n%s cases skipped (too little ground left without the overlap)\n", std::to_string(skipped).c_str());
+    if (null_cases) std::printf("\n%zu cases skipped (too little ground left without the overlap)\n", skipped);
     std::printf("\n| configuration | fallback winners passing score and gain | margin >= 0 right / wrong | >= 0.05 | >= 0.10 | >= 0.15 | >= 0.20 | >= 0.25 | largest margin of a wrong winner |\n");
     std::printf("|---|---|---|---|---|---|---|---|---|\n");
     for (const auto& config : configs) {
@@ -537,6 +544,15 @@ int main(int argc, char** argv) {
         std::printf(" %d / %d |", right, wrong);
       }
       std::printf(" %.3f |\n", worst);
+    }
+    // The margins themselves, largest first (another margin scale than the table's may be wanted).
+    for (const auto& config : configs) {
+      std::vector<MarginRecord> v = margins[config.name];
+      std::sort(v.begin(), v.end(), [](const MarginRecord& a, const MarginRecord& b) { return a.margin > b.margin; });
+      std::string right_text, wrong_text;
+      for (const MarginRecord& m : v)
+        if (m.margin >= 0.0) (m.right ? right_text : wrong_text) += " " + std::to_string(m.margin).substr(0, 5);
+      std::printf("\n%s margins >= 0, right:%s; wrong:%s\n", config.name.c_str(), right_text.c_str(), wrong_text.c_str());
     }
   } catch (const std::exception& e) {
     std::cerr << "rough_coregistration_eval: " << e.what() << "\n";

@@ -46,7 +46,8 @@ const char* kUsage =
     "  --no-rotations                        try 0 degrees only\n"
     "  --no-scales                           no scale hypotheses (coarsened DSMs for resolution gaps)\n"
     "  --fallback off|heights|gradient       dense correlation search when the features find nothing\n"
-    "                                        (small coarse DSMs against fine ones; default: the library's)\n"
+    "                                        (small coarse DSMs against fine ones; default off;\n"
+    "                                        gradient is the measured best, heights the earlier search)\n"
     "  --threshold PX                        2D RANSAC threshold, DSM pixels (default 10)\n"
     "  --threads N                           worker threads, 0 = all cores (default 0)\n"
     "  --seed S                              random seed (default 0)\n"
@@ -153,7 +154,11 @@ int main(int argc, char** argv) {
         DIACHRON_CHECK(f == "off" || f == "heights" || f == "gradient",
                        "--fallback wants off, heights or gradient, got '" << f << "'");
         options.correlation_fallback = f != "off";
-        if (f != "off") options.correlation_search.signal = f == "heights" ? CorrelationSignal::heights : CorrelationSignal::gradient;
+        // heights: the earlier search (peaks weighed by their share); gradient: the library's defaults.
+        if (f == "heights") {
+          options.correlation_search.signal = CorrelationSignal::heights;
+          options.correlation_search.strength = CorrelationStrength::share;
+        }
       }
       else if (a == "--threshold") options.ransac_2d.threshold = std::stod(value());
       else if (a == "--threads") options.threads = std::stoul(value());

@@ -1,6 +1,7 @@
 #include <catch2/catch.hpp>
 
 #include <cmath>
+#include <utility>
 #include <cstdint>
 #include <limits>
 #include <vector>
@@ -128,6 +129,32 @@ TEST_CASE("DsmCorrelationSearch: partial overlap and holes on both sides", "[ter
   CHECK(max_error_px(c, r) < 2.0);
 }
 
+TEST_CASE("DsmCorrelationSearch: CorrelationStrength::samples counts pixels, share counts the footprint", "[terrain]") {
+  using diachron::detail::correlation_strength;
+  // Share: a whole small template and a whole large one weigh the same; samples: the large one more.
+  CHECK(correlation_strength(0.9, 100.0, 100.0) == Approx(correlation_strength(0.9, 1000.0, 1000.0)));
+  CHECK(correlation_strength(0.9, 400.0, 1024.0, false) == Approx(std::atanh(0.9) * std::sqrt(400.0 / 1024.0)));
+  CHECK(correlation_strength(0.9, 4096.0, 1024.0, false) == Approx(2.0 * std::atanh(0.9)));
+  CHECK(correlation_strength(0.9, 4096.0, 1024.0) == Approx(std::atanh(0.9)));  // capped at the whole reference
+  // The whole search with each (and with the heights, the earlier default): the same answer.
+  const Terrain terrain(23);
+  const Case c = make_case(terrain, terrain, 0.8, -64.0, {112.0, 60.0}, 70, 60, true);
+  using diachron::CorrelationSignal;
+  using diachron::CorrelationStrength;
+  for (const auto& [signal, strength] : {std::pair{CorrelationSignal::gradient, CorrelationStrength::samples},
+                                         std::pair{CorrelationSignal::gradient, CorrelationStrength::share},
+                                         std::pair{CorrelationSignal::heights, CorrelationStrength::share}}) {
+    diachron::DsmCorrelationSearchOptions o = quick_options();
+    o.signal = signal;
+    o.strength = strength;
+    const diachron::DsmCorrelationResult r = diachron::dsm_correlation_search(c.master, c.secondary, o);
+    INFO(r.message);
+    REQUIRE(r.success);
+    CHECK(max_error_px(c, r) < 2.0);
+    CHECK(r.strength > r.runner_up_strength + o.min_margin);
+  }
+}
+
 TEST_CASE("DsmCorrelationSearch: no answer on unrelated DSMs", "[terrain]") {
   const Case c = make_case(Terrain(5), Terrain(99), 1.2, 30.0, {60.0, 60.0}, 40, 40, false);
   const diachron::DsmCorrelationResult r = diachron::dsm_correlation_search(c.master, c.secondary, quick_options());
@@ -164,7 +191,9 @@ TEST_CASE("DsmCorrelationSearch: the gradient signal finds a master tilted again
   const diachron::DsmCorrelationResult r = diachron::dsm_correlation_search(c.master, c.secondary, o);
   check_recovered(c, r, 0.03);
   // The heights themselves carry the tilt's plane and do not find this master.
-  const diachron::DsmCorrelationResult h = diachron::dsm_correlation_search(c.master, c.secondary);
+  diachron::DsmCorrelationSearchOptions heights = o;
+  heights.signal = diachron::CorrelationSignal::heights;
+  const diachron::DsmCorrelationResult h = diachron::dsm_correlation_search(c.master, c.secondary, heights);
   INFO("heights: " << h.message);
   CHECK_FALSE((h.success && max_error_px(c, h) < 2.0));
 }

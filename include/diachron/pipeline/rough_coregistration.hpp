@@ -124,14 +124,13 @@ struct RoughCoregistrationOptions {
   /// Fallback when no feature hypothesis succeeds (rough_coregistration() only): search the master
   /// DSM in the secondary by the correlation of their heights over rotations and scales
   /// (terrain/dsm_correlation_search.hpp), then 3D correspondences on a grid of master cells and the
-  /// same 3D Helmert RANSAC guard. Off by default, by measurement (docs/rough-coregistration.md,
-  /// "Dense correlation fallback"): on 100 resolution-gap cases it won 5 more (coarse windows of
-  /// 40 x 60 cells; 75 instead of 70, none wrong), but it did not find the real 10 m / 2 m Mount St.
+  /// same 3D Helmert RANSAC guard. Off by default (docs/rough-coregistration.md, "Dense correlation
+  /// fallback" and the sections after it). With the search's defaults (the gradient, peaks weighed by
+  /// their samples) it answered 10 more of 100 resolution-gap cases (80 instead of 70, none wrong) and
+  /// none of 190 DSM pairs that do not overlap; but it does not find the real 10 m / 2 m Mount St.
   /// Helens pair (the dome changed as much as the relief there), and every failure then costs a
-  /// median of 5 s more (1.4 to 28 s measured, one thread) instead of under a second. On DSM pairs
-  /// that do not overlap it answered 3 of 190 (heights) and 1 of 190 (gradient), wrongly ("Cases
-  /// without an answer"): its successes are graded RoughCoregistrationTrust::kLow. Turn it on for
-  /// small coarse DSMs against fine ones, and check its answer.
+  /// median of 5 s more (1 to 28 s measured, one thread) instead of under a second. Its successes
+  /// are graded RoughCoregistrationTrust::kLow. Turn it on for small coarse DSMs against fine ones.
   bool correlation_fallback = false;
   DsmCorrelationSearchOptions correlation_search{};
   /// The fallback's Helmert must explain at least this fraction of its grid correspondences within
@@ -664,9 +663,10 @@ inline void correlation_fallback(const Dsm& master, const Dsm& secondary, const 
   report.rms_3d = std::sqrt(sum2 / static_cast<double>(guard.inliers.size()));
   report.rms_3d_cells = report.rms_3d / secondary.min_cell_size();
   // Never high: the grid correspondences are placed by the search itself, so their 3D residuals say
-  // how smooth the terrain is, not whether the placement is right. On DSM pairs that do not overlap
-  // the search's margin test let 4 wrong placements through in 380 runs, every one with all its
-  // grid points agreeing within 0.6 cells (docs/rough-coregistration.md, "Cases without an answer").
+  // how smooth the terrain is, not whether the placement is right. On DSM pairs that do not overlap,
+  // the margin test with CorrelationStrength::share let 4 wrong placements through in 380 runs, every
+  // one with all its grid points within 0.6 cells (docs/rough-coregistration.md, "Cases without an
+  // answer").
   report.trust = RoughCoregistrationTrust::kLow;
   report.message = "correlation fallback: " + report.correlation.message + "; " +
                    std::to_string(report.inliers_3d.size()) + " of " + std::to_string(report.lifted.size()) +
