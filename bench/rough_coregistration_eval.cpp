@@ -18,9 +18,10 @@
 // secondary of a case drawn on the other (the same kind of terrain, moved, noised and holed as the
 // cases with an answer, but elsewhere). The real pair, used whole, keeps the 10 m DEM without the
 // 2 m DEM's footprint and a margin of a tenth of its size (skipped where nothing is left).
-// Every success reported on them is wrong. With or without --null, a table at the end says, for
-// margins from 0 to 0.25, how many of the fallback's refused winners each margin would accept, and
-// how many of them are right.
+// Every success reported on them is wrong. With or without --null, a table at the end takes the
+// fallback's winners that pass min_score and the gain test and says, for margins from 0 to 0.25,
+// how many of them each margin would accept and how many of those are right; then the margins
+// themselves.
 //
 // --tilt DEG sets the largest tilt between the frames (CoregistrationCaseOptions::tilt_max_deg, 2 by
 // default); the other draws of each case stay the same.
@@ -526,8 +527,8 @@ int main(int argc, char** argv) {
       }
       std::printf("| %s | %d | %d | %d | %d | %d |\n", config.name.c_str(), reported, right, wrong, caught, lost);
     }
-    // The correlation fallback's margin test: how many refused or accepted winners (those that
-    // pass min_score and the gain test) each margin would accept, and how many of them are right.
+    // The correlation fallback's margin test: how many of the winners that pass min_score and the
+    // gain test each margin would accept, and how many of them are right.
     if (null_cases) std::printf("\n%zu cases skipped (too little ground left without the overlap)\n", skipped);
     std::printf("\n| configuration | fallback winners passing score and gain | margin >= 0 right / wrong | >= 0.05 | >= 0.10 | >= 0.15 | >= 0.20 | >= 0.25 | largest margin of a wrong winner |\n");
     std::printf("|---|---|---|---|---|---|---|---|---|\n");

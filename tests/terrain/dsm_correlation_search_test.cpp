@@ -1,9 +1,9 @@
 #include <catch2/catch.hpp>
 
 #include <cmath>
-#include <utility>
 #include <cstdint>
 #include <limits>
+#include <utility>
 #include <vector>
 
 #include <diachron/core/error.hpp>

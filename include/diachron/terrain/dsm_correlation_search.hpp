@@ -9,8 +9,8 @@
 /// winner must stand out from the hypotheses that map the master elsewhere, otherwise there is no
 /// answer. For DSMs with too little texture for feature matchers (a coarse DSM of 20 x 30 cells);
 /// ZNCC is blind to the gain and offset of heights, hence to the frames' height scale and datum.
-/// With CorrelationSignal::gradient it correlates the heights' gradient instead (two channels), which
-/// is also blind to a tilt between the frames.
+/// By default (CorrelationSignal::gradient) it correlates the heights' gradient (two channels), which
+/// is also blind to a tilt between the frames; CorrelationSignal::heights correlates the heights.
 ///
 /// Conventions: pixel coordinates are pixel centres (diachron's convention); the result maps master
 /// DSM pixels to secondary DSM pixels, p_s = scale R(angle) D p_m + translation, with D = diag(1, -1)
