@@ -11,12 +11,12 @@
 # or not, so a call whose definition lives in a header that is not included (Eigen's inverse() or
 # determinant() with only <Eigen/Core>: declared there, defined in <Eigen/LU>) is an undefined
 # reference at link time. (Function templates are checked only where the header itself instantiates
-# them; other compilers get the compile check only.) Emitting every inline function of Eigen, OpenCV and Ceres doubles a program's build, and the composed headers
-# (matching/ to pipeline/, synth/, vision/, io/, adjustment/) parse for 10 to 20 s each, so they get
-# the compile check only: with 90 headers on 2 cores, the link check of every one of them took 6
-# of CI's 30 minutes. DIACHRON_TEST_HEADERS_LINK_ALL=ON link-checks them too. Each program links
-# alone: linked together, one header's inline functions would supply the definitions another
-# header forgot to include.
+# them; other compilers get the compile check only.) Emitting every inline function of Eigen, OpenCV
+# and Ceres doubles a program's build, and the composed headers (matching/ to pipeline/, synth/,
+# vision/, io/, adjustment/) parse for 10 to 20 s each, so they get the compile check only: with 90
+# headers on 2 cores, the link check of every one of them took 6 of CI's 30 minutes.
+# DIACHRON_TEST_HEADERS_LINK_ALL=ON link-checks them too. Each program links alone: linked together,
+# one header's inline functions would supply the definitions another header forgot to include.
 #
 # The umbrella header <diachron/diachron.hpp> has no program: it only includes headers that are each
 # checked here, and the consumer test (tests/consumer) compiles it in an outside project.

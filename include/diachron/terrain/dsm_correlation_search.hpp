@@ -450,7 +450,10 @@ inline DsmCorrelationResult dsm_correlation_search(const Dsm& master, const Dsm&
     } else {
       map = ncc->correlate(t, min_overlap, 1e-12);
     }
-    const double smaller_valid = static_cast<double>(std::min(t_valid, fixed_valid));
+    // What a peak's overlap is counted against (see CorrelationStrength).
+    const bool by_samples = options.strength == CorrelationStrength::samples;
+    const double reference = by_samples ? options.coarse_size_px * options.coarse_size_px
+                                        : static_cast<double>(std::min(t_valid, fixed_valid));
     int bx = 0, by = 0;
     double best = -std::numeric_limits<double>::infinity();
     bool found = false;
@@ -458,10 +461,7 @@ inline DsmCorrelationResult dsm_correlation_search(const Dsm& master, const Dsm&
       for (int x = 0; x < map.score.width(); ++x) {
         const double z = map.score(x, y);
         if (std::isnan(z)) continue;
-        const double s = options.strength == CorrelationStrength::samples
-                             ? detail::correlation_strength(z, map.overlap(x, y),
-                                                            options.coarse_size_px * options.coarse_size_px, false)
-                             : detail::correlation_strength(z, map.overlap(x, y), smaller_valid);
+        const double s = detail::correlation_strength(z, map.overlap(x, y), reference, !by_samples);
         if (!(s > best)) continue;
         // The window's rim only serves the sub-pixel fit.
         if (predicted && (x == 0 || y == 0 || x == map.score.width() - 1 || y == map.score.height() - 1)) continue;
