@@ -14,6 +14,7 @@
 //                    the scenes' film deformation is one per epoch)
 //   staged       the intrinsics freed in three solves as Tapas/Campari do (f and principal point,
 //                then + K1-K3, then all; BundleOptions::staged_intrinsics)
+//   cauchy       Cauchy's loss instead of Huber's (same 1 px scale): large residuals weigh less
 //   colmap       Debian's COLMAP 3.8 bundle_adjuster on the same images and tracks (nearest COLMAP
 //                cameras, no affine term; everything free, so its result is brought back onto epoch
 //                2's fixed orientation by the similarity of its epoch-2 centres onto the input's)
@@ -30,7 +31,7 @@
 // epoch-2 orientation fixed, "oracle matches" matches the same master points by the truth.
 //
 //   adjustment_eval [--seeds N] [--first-seed S] [--threads N] [--no-colmap] [--colmap-work DIR]
-//                   [--max-relief G] [--cell PX] [--e1-block RxC] [--e1-ties N]
+//                   [--max-relief G] [--cell PX] [--e1-block RxC] [--e1-ties N] [--e2-block RxC]
 //
 // --max-relief G: precise matching skips master points whose ground is not locally a plane to G
 // secondary GSD (PreciseCorrelationOptions::max_relief_gsd; default off, as match_epochs).
@@ -40,6 +41,10 @@
 // --e1-ties N: epoch 1's SfM hands over N intra-epoch tie point attempts (EpochOptions::tie_points,
 // default 1500 in SceneOptions::decades_apart()): how much the density of the film block's own tie
 // points limits the self-calibration.
+// --e2-block RxC: epoch 2 (the fixed reference) flown as R strips of C images (default 3x3), at the
+// same overlaps and centre. The default 3 x 3 block covers about 1.4 x 1.4 km, less than the film
+// block's 2.2 x 2.0 km, so the film images' outer parts get no inter-epoch match; 5x6 covers the whole
+// film block, as the reference epochs of the paper's datasets cover their historical ones.
 //
 // Prints one line per seed and variant on stderr and a Markdown table (medians over the seeds) on
 // stdout. Not a test: docs/adjustment.md holds its output.
@@ -115,7 +120,7 @@ struct Outcome {
 
 const char* const kVariants[] = {"rough",          "intra only",   "no affine",         "full",
                                  "e2 camera free", "both free",    "oracle e2 frames", "oracle matches",
-                                 "inter sigma 1",  "affine per camera", "staged", "colmap"};
+                                 "inter sigma 1",  "affine per camera", "staged", "cauchy", "colmap"};
 
 // Check points of epoch 1 triangulated with `frames` (epoch-2 frame), errors in world metres.
 CheckPointReport check_points(const Scene& scene, const Frames& frames) {
@@ -226,8 +231,14 @@ int run(int argc, char** argv) {
   int cell = 0;  // 0: the library's default
   int e1_rows = 0, e1_columns = 0;  // 0: the scene's default
   int e1_ties = -1;                   // < 0: the scene's default
+  int e2_rows = 0, e2_columns = 0;  // 0: the scene's default
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
+    // A block's strips x images per strip, "RxC".
+    const auto read_block = [&a](const std::string& b, int& rows, int& columns) {
+      if (std::sscanf(b.c_str(), "%dx%d", &rows, &columns) != 2 || rows < 1 || columns < 1)
+        throw std::runtime_error(a + " needs RxC, e.g. 3x3, got " + b);
+    };
     const auto value = [&]() -> std::string {
       if (i + 1 >= argc) throw std::runtime_error(a + " needs a value");
       return argv[++i];
@@ -239,17 +250,15 @@ int run(int argc, char** argv) {
     else if (a == "--colmap-work") colmap_work = value();
     else if (a == "--max-relief") max_relief = std::stod(value());
     else if (a == "--cell") cell = std::stoi(value());
-    else if (a == "--e1-block") {
-      const std::string b = value();
-      if (std::sscanf(b.c_str(), "%dx%d", &e1_rows, &e1_columns) != 2 || e1_rows < 1 || e1_columns < 1)
-        throw std::runtime_error("--e1-block needs RxC, e.g. 3x3, got " + b);
-    } else if (a == "--e1-ties") {
+    else if (a == "--e1-block") read_block(value(), e1_rows, e1_columns);
+    else if (a == "--e2-block") read_block(value(), e2_rows, e2_columns);
+    else if (a == "--e1-ties") {
       e1_ties = std::stoi(value());
       if (e1_ties < 0) throw std::runtime_error("--e1-ties needs a count >= 0");
     } else {
       std::fprintf(stderr,
                    "usage: adjustment_eval [--seeds N] [--first-seed S] [--threads N] [--no-colmap] [--colmap-work DIR] "
-                   "[--max-relief G] [--cell PX] [--e1-block RxC] [--e1-ties N]\n");
+                   "[--max-relief G] [--cell PX] [--e1-block RxC] [--e1-ties N] [--e2-block RxC]\n");
       return 1;
     }
   }
@@ -266,6 +275,10 @@ int run(int argc, char** argv) {
       scene_options.epochs[0].columns = e1_columns;
     }
     if (e1_ties >= 0) scene_options.epochs[0].tie_points = e1_ties;
+    if (e2_rows > 0) {
+      scene_options.epochs[1].rows = e2_rows;
+      scene_options.epochs[1].columns = e2_columns;
+    }
     auto t0 = std::chrono::steady_clock::now();
     const Scene scene = generate_scene(scene_options);
     const SyntheticEpoch& e1 = scene.epochs[0];
@@ -362,7 +375,7 @@ int run(int argc, char** argv) {
     std::vector<Track> full_tracks;  // the tracks of the shipped adjustment, for COLMAP's run
     for (const char* variant :
          {"no affine", "full", "e2 camera free", "both free", "oracle e2 frames", "oracle matches", "inter sigma 1",
-          "affine per camera", "staged"}) {
+          "affine per camera", "staged", "cauchy"}) {
       const std::string v = variant;
       Outcome o;
       CombinedAdjustmentOptions options;
@@ -373,6 +386,7 @@ int run(int argc, char** argv) {
       if (v == "inter sigma 1") options.bundle.inter_epoch_sigma_px = options.bundle.intra_epoch_sigma_px;
       if (v == "affine per camera") options.bundle.affine_scope = AffineScope::per_camera;
       if (v == "staged") options.bundle.staged_intrinsics = true;
+      if (v == "cauchy") options.bundle.loss = RobustLoss::cauchy;
       if (v == "oracle e2 frames")
         for (std::size_t i = 0; i < e2.images.size(); ++i) reference.frames[i] = e2.epoch_frame(i);
       t0 = std::chrono::steady_clock::now();
