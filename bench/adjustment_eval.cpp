@@ -210,6 +210,23 @@ std::string fmt(double v, const char* f = "%.2f") {
   return b;
 }
 
+// A block's size as --e1-block / --e2-block give it ("RxC": R strips of C images); 0 keeps the scene's.
+struct BlockSize {
+  int rows = 0, columns = 0;
+  // Parses `text` for the option `option`; throws with the option's name on anything else.
+  static BlockSize parse(const std::string& option, const std::string& text) {
+    BlockSize b;
+    if (std::sscanf(text.c_str(), "%dx%d", &b.rows, &b.columns) != 2 || b.rows < 1 || b.columns < 1)
+      throw std::runtime_error(option + " needs RxC, e.g. 3x3, got " + text);
+    return b;
+  }
+  void apply(EpochOptions& epoch) const {
+    if (rows == 0) return;
+    epoch.rows = rows;
+    epoch.columns = columns;
+  }
+};
+
 // A table cell "a / b" of two medians over the seeds (worst / RMS, or worst image / median image).
 struct MedianPair {
   std::vector<double> first, second;
@@ -229,16 +246,10 @@ int run(int argc, char** argv) {
   std::string colmap_work = "adjustment_eval_colmap";
   double max_relief = 0.0;
   int cell = 0;  // 0: the library's default
-  int e1_rows = 0, e1_columns = 0;  // 0: the scene's default
-  int e1_ties = -1;                   // < 0: the scene's default
-  int e2_rows = 0, e2_columns = 0;  // 0: the scene's default
+  BlockSize e1_block, e2_block;
+  int e1_ties = -1;  // < 0: the scene's default
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
-    // A block's strips x images per strip, "RxC".
-    const auto read_block = [&a](const std::string& b, int& rows, int& columns) {
-      if (std::sscanf(b.c_str(), "%dx%d", &rows, &columns) != 2 || rows < 1 || columns < 1)
-        throw std::runtime_error(a + " needs RxC, e.g. 3x3, got " + b);
-    };
     const auto value = [&]() -> std::string {
       if (i + 1 >= argc) throw std::runtime_error(a + " needs a value");
       return argv[++i];
@@ -250,8 +261,8 @@ int run(int argc, char** argv) {
     else if (a == "--colmap-work") colmap_work = value();
     else if (a == "--max-relief") max_relief = std::stod(value());
     else if (a == "--cell") cell = std::stoi(value());
-    else if (a == "--e1-block") read_block(value(), e1_rows, e1_columns);
-    else if (a == "--e2-block") read_block(value(), e2_rows, e2_columns);
+    else if (a == "--e1-block") e1_block = BlockSize::parse(a, value());
+    else if (a == "--e2-block") e2_block = BlockSize::parse(a, value());
     else if (a == "--e1-ties") {
       e1_ties = std::stoi(value());
       if (e1_ties < 0) throw std::runtime_error("--e1-ties needs a count >= 0");
@@ -270,15 +281,9 @@ int run(int argc, char** argv) {
     SceneOptions scene_options = SceneOptions::decades_apart();
     scene_options.seed = first_seed + static_cast<std::uint64_t>(s);
     scene_options.threads = threads;
-    if (e1_rows > 0) {
-      scene_options.epochs[0].rows = e1_rows;
-      scene_options.epochs[0].columns = e1_columns;
-    }
+    e1_block.apply(scene_options.epochs[0]);
+    e2_block.apply(scene_options.epochs[1]);
     if (e1_ties >= 0) scene_options.epochs[0].tie_points = e1_ties;
-    if (e2_rows > 0) {
-      scene_options.epochs[1].rows = e2_rows;
-      scene_options.epochs[1].columns = e2_columns;
-    }
     auto t0 = std::chrono::steady_clock::now();
     const Scene scene = generate_scene(scene_options);
     const SyntheticEpoch& e1 = scene.epochs[0];
