@@ -17,11 +17,11 @@ using namespace diachron;
 
 namespace {
 
-constexpr double kFocal = 15300.0;
-constexpr int kSize = 23000;
+constexpr double kColmapFocal = 15300.0;
+constexpr int kColmapSize = 23000;
 
 Camera<FraserAffine> aerial(double k3, double b1, double b2) {
-  return Camera<FraserAffine>(kFocal, 11511.8, 11492.4, kSize, kSize,
+  return Camera<FraserAffine>(kColmapFocal, 11511.8, 11492.4, kColmapSize, kColmapSize,
                               {-0.08, 0.02, k3, 1e-4, -8e-5, b1, b2});
 }
 
@@ -51,7 +51,7 @@ double max_distance(const Camera<FraserAffine>& camera, const ColmapFullOpenCv& 
   double worst = 0.0;
   for (int i = 0; i <= 30; ++i) {
     for (int k = 0; k <= 30; ++k) {
-      const Vec2 pixel(-0.5 + kSize * k / 30.0, -0.5 + kSize * i / 30.0);
+      const Vec2 pixel(-0.5 + kColmapSize * k / 30.0, -0.5 + kColmapSize * i / 30.0);
       const std::optional<Vec2> xy = camera.normalized_from_pixel(pixel);
       REQUIRE(xy);
       const Vec2 colmap_pixel = opencv_project(colmap, *xy) - Vec2(0.5, 0.5);
@@ -66,8 +66,8 @@ double max_distance(const Camera<FraserAffine>& camera, const ColmapFullOpenCv& 
 TEST_CASE("colmap_conversion: OPENCV to camera is exact, with P swapped and the half pixel",
           "[camera]") {
   ColmapOpenCv colmap;
-  colmap.width = kSize;
-  colmap.height = kSize;
+  colmap.width = kColmapSize;
+  colmap.height = kColmapSize;
   colmap.fx = 15301.53;
   colmap.fy = 15300.0;
   colmap.cx = 11512.3;
@@ -111,7 +111,7 @@ TEST_CASE("colmap_conversion: camera -> OPENCV -> camera round trip is exact", "
   CHECK(back.model.focal() == camera.focal());
   CHECK(back.model.cx() == Approx(camera.cx()).epsilon(1e-15));
   // Any built-in policy converts through its FraserAffine form.
-  const Camera<Fraser> fraser(kFocal, 11511.8, 11492.4, kSize, kSize, {-0.08, 0.02, 0.0, 1e-4, 0});
+  const Camera<Fraser> fraser(kColmapFocal, 11511.8, 11492.4, kColmapSize, kColmapSize, {-0.08, 0.02, 0.0, 1e-4, 0});
   CHECK(colmap_opencv_from_camera(fraser).exact);
 }
 
@@ -130,8 +130,8 @@ TEST_CASE("colmap_conversion: K3 and shear make OPENCV a fit that reports its er
   CHECK(measured == Approx(to.max_error_px).epsilon(0.25));
   // The fit beats the naive closed form (dropping K3 and B2).
   ColmapFullOpenCv naive = as_full(to.model);
-  naive.fx = kFocal + 1.53;
-  naive.fy = kFocal;
+  naive.fx = kColmapFocal + 1.53;
+  naive.fy = kColmapFocal;
   naive.cx = 11512.3;
   naive.cy = 11492.9;
   naive.k1 = -0.08;
@@ -155,15 +155,15 @@ TEST_CASE("colmap_conversion: FULL_OPENCV without k4..k6 is exact both ways", "[
   for (int i = 0; i < 7; ++i) {
     CHECK(back.model.params()[i] == Approx(camera.params()[i]).margin(1e-11));
   }
-  const ColmapFullOpenCv parsed = ColmapFullOpenCv::from_params(kSize, kSize, to.model.params());
+  const ColmapFullOpenCv parsed = ColmapFullOpenCv::from_params(kColmapSize, kColmapSize, to.model.params());
   CHECK(parsed.params() == to.model.params());
 }
 
 TEST_CASE("colmap_conversion: the rational FULL_OPENCV is fitted and its error reported",
           "[camera]") {
   ColmapFullOpenCv colmap;
-  colmap.width = kSize;
-  colmap.height = kSize;
+  colmap.width = kColmapSize;
+  colmap.height = kColmapSize;
   colmap.fx = 15301.53;
   colmap.fy = 15300.0;
   colmap.cx = 11512.3;

@@ -18,7 +18,7 @@ using namespace diachron;
 namespace {
 
 constexpr double kF = 15300.0;
-constexpr int kSize = 23000;
+constexpr int kMicmacSize = 23000;
 
 // A FraserBasic calibration (CDist = PP) equivalent to K1 = -0.08, K2 = 0.02, K3 = -0.005,
 // P1 = 1e-4, P2 = -8e-5 in normalised units.
@@ -32,8 +32,8 @@ MicmacFraser fraser_basic() {
   m.r7 = -0.005 / std::pow(kF, 6);
   m.p1 = 1e-4 / kF;
   m.p2 = -8e-5 / kF;
-  m.width = kSize;
-  m.height = kSize;
+  m.width = kMicmacSize;
+  m.height = kMicmacSize;
   return m;
 }
 
@@ -53,7 +53,7 @@ double max_distance(const Camera<FraserAffine>& camera, const MicmacFraser& micm
   double worst = 0.0;
   for (int i = 0; i <= 30; ++i) {
     for (int k = 0; k <= 30; ++k) {
-      const Vec2 pixel(-0.5 + kSize * k / 30.0, -0.5 + kSize * i / 30.0);
+      const Vec2 pixel(-0.5 + kMicmacSize * k / 30.0, -0.5 + kMicmacSize * i / 30.0);
       const std::optional<Vec2> xy = camera.normalized_from_pixel(pixel);
       REQUIRE(xy);
       worst = std::max(worst, (micmac_project(micmac, *xy) - pixel).norm());
@@ -88,7 +88,7 @@ TEST_CASE("micmac_conversion: FraserBasic without affinity is exact", "[camera]"
 }
 
 TEST_CASE("micmac_conversion: camera -> MicMac -> camera round trip is exact", "[camera]") {
-  const Camera<Fraser> camera(kF, 11511.8, 11492.4, kSize, kSize,
+  const Camera<Fraser> camera(kF, 11511.8, 11492.4, kMicmacSize, kMicmacSize,
                               {-0.08, 0.02, -0.005, 1e-4, -8e-5});
   const auto to = micmac_from_camera(camera);
   CHECK(to.exact);

@@ -23,7 +23,7 @@ namespace {
 
 // The small test scene with images of half the size (and half the focal length: the same ground
 // sampling distance): check points need geometry, not pixels, and rendering dominates the time.
-const Scene& scene() {
+const Scene& check_point_scene() {
   static const Scene s = [] {
     SceneOptions o = diachron::test::small_scene_options(5, 0, 30);
     for (EpochOptions& e : o.epochs) {
@@ -66,7 +66,7 @@ RayTriangulator epoch1_in_epoch2(const Scene& s, bool estimated) {
 }  // namespace
 
 TEST_CASE("scene_check_points: truth in the reference frame, true pixels of the observed epoch", "[eval]") {
-  const Scene& s = scene();
+  const Scene& s = check_point_scene();
   const std::vector<ObservedCheckPoint> points = scene_check_points(s, 0, 1);
   REQUIRE(points.size() == s.check_points.size());
   REQUIRE(!points.empty());
@@ -84,7 +84,7 @@ TEST_CASE("scene_check_points: truth in the reference frame, true pixels of the 
 }
 
 TEST_CASE("evaluate_check_points on a scene: true orientation exact, estimated orientation metres off", "[eval]") {
-  const Scene& s = scene();
+  const Scene& s = check_point_scene();
   const std::vector<ObservedCheckPoint> points = scene_check_points(s, 0, 1);
   const double gsd = s.epochs[0].gsd_m;
   const CheckPointReport truth = evaluate_check_points(points, epoch1_in_epoch2(s, false), gsd);
@@ -104,7 +104,7 @@ TEST_CASE("evaluate_check_points on a scene: true orientation exact, estimated o
 }
 
 TEST_CASE("evaluate_scene_check_points: errors in world metres whatever the frame's scale", "[eval]") {
-  const Scene& s = scene();
+  const Scene& s = check_point_scene();
   const double scale = s.epochs[1].world_from_epoch.scale;
   REQUIRE(std::abs(scale - 1.0) > 0.05);  // a frame whose units are not metres, else the test proves nothing
   const RayTriangulator exact = epoch1_in_epoch2(s, false);

@@ -29,7 +29,7 @@ static_assert(Similarity2Estimator::kSampleSize == 2 && Similarity2Estimator::kM
 
 namespace {
 
-double angle_difference(double a, double b) { return std::abs(diachron::wrap_angle(a - b)); }
+double angle_error(double a, double b) { return std::abs(diachron::wrap_angle(a - b)); }
 
 Similarity2Estimator::Sample sample_of(const Similarity2& model, Eigen::Vector2d a,
                                        Eigen::Vector2d b) {
@@ -52,7 +52,7 @@ TEST_CASE("Similarity2Estimator: exact recovery from a minimal sample", "[geomet
         REQUIRE(models.size() == 1);
         const Similarity2& model = models[0];
         CHECK(model.scale == Approx(scale).epsilon(1e-11));
-        CHECK(angle_difference(model.angle, angle) < 1e-11);
+        CHECK(angle_error(model.angle, angle) < 1e-11);
         CHECK(model.angle > -kPi);
         CHECK(model.angle <= kPi);
         CHECK((model.translation - truth.translation).norm() < 1e-8 * (1 + scale));
@@ -162,7 +162,7 @@ TEST_CASE("Similarity2Estimator: refine is weighted least squares", "[geometry]"
   REQUIRE(plain);
   REQUIRE(weighted);
   CHECK(weighted->scale == Approx(plain->scale).epsilon(1e-13));
-  CHECK(angle_difference(weighted->angle, plain->angle) < 1e-13);
+  CHECK(angle_error(weighted->angle, plain->angle) < 1e-13);
   CHECK((weighted->translation - plain->translation).norm() < 1e-9);
   CHECK(plain->scale == Approx(1.7).epsilon(1e-3));
 
@@ -218,7 +218,7 @@ TEST_CASE("Similarity2Estimator: options (symmetric scale, rigid, check())", "[g
   const auto models = rigid.minimal(sample_of(euclidean, {0, 0}, {10, 5}));
   REQUIRE(models.size() == 1);
   CHECK(models[0].scale == 1.0);
-  CHECK(angle_difference(models[0].angle, 2.0) < 1e-13);
+  CHECK(angle_error(models[0].angle, 2.0) < 1e-13);
   CHECK((models[0].translation - euclidean.translation).norm() < 1e-12);
 
   CHECK_NOTHROW(Similarity2Estimator::Options{}.check());

@@ -17,7 +17,7 @@ using diachron::Similarity2T;
 
 namespace {
 
-const std::vector<double> kAngles = {0.0, 0.3,         -2.0, kPi / 2, kPi - 1e-9,
+const std::vector<double> kSimilarityAngles = {0.0, 0.3,         -2.0, kPi / 2, kPi - 1e-9,
                                      kPi, -kPi + 1e-6, 3.0,  -3.1};
 
 }  // namespace
@@ -46,7 +46,7 @@ TEST_CASE("Similarity2: maps a point as scale * R * x + t", "[geometry]") {
 
 TEST_CASE("Similarity2: inverse undoes the transform, also near 180 degrees", "[geometry]") {
   diachron::RandomStream random(7);
-  for (double angle : kAngles) {
+  for (double angle : kSimilarityAngles) {
     for (double scale : {0.01, 0.5, 1.0, 3.0, 100.0}) {
       const Similarity2 b_from_a{
           scale, angle, {random.uniform(-100, 100), random.uniform(-100, 100)}};
@@ -68,8 +68,8 @@ TEST_CASE("Similarity2: inverse undoes the transform, also near 180 degrees", "[
 
 TEST_CASE("Similarity2: composition applies the right operand first", "[geometry]") {
   diachron::RandomStream random(11);
-  for (double angle_a : kAngles) {
-    for (double angle_b : kAngles) {
+  for (double angle_a : kSimilarityAngles) {
+    for (double angle_b : kSimilarityAngles) {
       const Similarity2 c_from_b{
           random.uniform(0.1, 10), angle_a, {random.uniform(-10, 10), random.uniform(-10, 10)}};
       const Similarity2 b_from_a{

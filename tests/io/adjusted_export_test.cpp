@@ -25,7 +25,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string temp_folder(const std::string& name) { return diachron::test::fresh_temp_folder("adjusted_" + name); }
+std::string export_folder(const std::string& name) { return diachron::test::fresh_temp_folder("adjusted_" + name); }
 
 // Epoch e1: two images sharing a camera with shear (B2 != 0: FULL_OPENCV, fitted) and one with its
 // own camera; epoch e2: two images of a camera OPENCV holds exactly (K3 = B2 = 0).
@@ -50,7 +50,7 @@ std::vector<CamerasJsonImage> adjusted_images() {
 
 TEST_CASE("write_adjusted_export: COLMAP models that project as the adjusted frames, within the reported error",
           "[io]") {
-  const std::string dir = temp_folder("models");
+  const std::string dir = export_folder("models");
   const std::vector<CamerasJsonImage> images = adjusted_images();
   const AdjustedExportReport report = write_adjusted_export(images, dir);
   CHECK(report.cameras_json_path == dir + "/adjusted/cameras.json");
@@ -108,7 +108,7 @@ TEST_CASE("write_adjusted_export: COLMAP models that project as the adjusted fra
 }
 
 TEST_CASE("write_adjusted_export: never writes into the input model, checks before writing", "[io]") {
-  const std::string dir = temp_folder("refuse");
+  const std::string dir = export_folder("refuse");
   const std::vector<CamerasJsonImage> images = adjusted_images();
   // The input model is DIR/adjusted/e1 itself, reached through a symbolic link.
   fs::create_directories(dir + "/adjusted/e1");
@@ -126,7 +126,7 @@ TEST_CASE("write_adjusted_export: never writes into the input model, checks befo
 
   std::vector<CamerasJsonImage> bad = images;
   bad[2].name = bad[0].name;
-  const std::string dir2 = temp_folder("bad");
+  const std::string dir2 = export_folder("bad");
   CHECK_THROWS_WITH(write_adjusted_export(bad, dir2), Contains("two images named 'e1_a'"));
   bad = images;
   bad[1].epoch = "..";

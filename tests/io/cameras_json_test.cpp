@@ -23,7 +23,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string temp_folder(const std::string& name) { return diachron::test::fresh_temp_folder("cameras_json_" + name); }
+std::string cameras_json_folder(const std::string& name) { return diachron::test::fresh_temp_folder("cameras_json_" + name); }
 
 // Images with random (ugly) doubles everywhere, so that any loss of digits shows.
 std::vector<CamerasJsonImage> random_images() {
@@ -60,7 +60,7 @@ std::string replaced(std::string text, const std::string& from, const std::strin
 
 TEST_CASE("cameras.json: written and read back to the last bit", "[io]") {
   const std::vector<CamerasJsonImage> images = random_images();
-  const std::string path = temp_folder("roundtrip") + "/cameras.json";
+  const std::string path = cameras_json_folder("roundtrip") + "/cameras.json";
   write_cameras_json(images, path);
   const std::vector<CamerasJsonImage> back = read_cameras_json(path);
   REQUIRE(back.size() == images.size());
@@ -133,7 +133,7 @@ TEST_CASE("cameras.json: bad files name the file and the key", "[io]") {
   // Writing checks first and leaves no file behind.
   std::vector<CamerasJsonImage> bad = random_images();
   bad[1].centre.x() = std::nan("");
-  const std::string path = temp_folder("bad") + "/cameras.json";
+  const std::string path = cameras_json_folder("bad") + "/cameras.json";
   CHECK_THROWS_WITH(write_cameras_json(bad, path), Contains("image 1"));
   CHECK_FALSE(fs::exists(path));
 }

@@ -28,7 +28,7 @@ using namespace diachron;
 
 namespace {
 
-std::string temp_folder(const std::string& name) { return diachron::test::fresh_temp_folder("colmap_" + name); }
+std::string colmap_folder(const std::string& name) { return diachron::test::fresh_temp_folder("colmap_" + name); }
 
 bool test_file_exists(const std::string& path) {
   struct stat info {};
@@ -148,7 +148,7 @@ void raw_pose(const std::string& images_txt, std::uint32_t image_id, Eigen::Vect
 
 TEST_CASE("colmap_text: write then read gives the same model", "[io][colmap]") {
   const ColmapModel model = sample_model();
-  const std::string dir = temp_folder("roundtrip");
+  const std::string dir = colmap_folder("roundtrip");
   write_colmap_text(model, dir);
   const ColmapModel back = read_colmap_text(dir);
   check_same_model(model, back, 1e-15);
@@ -158,13 +158,13 @@ TEST_CASE("colmap_text: write then read gives the same model", "[io][colmap]") {
   CHECK_FALSE(back.find_image("image_3.png"));
   // Written again, cameras and points are the same bytes (poses go through a rotation matrix, so
   // their last digit may move).
-  const std::string again = temp_folder("roundtrip_again");
+  const std::string again = colmap_folder("roundtrip_again");
   write_colmap_text(back, again);
   for (const char* file : {"/cameras.txt", "/points3D.txt"}) CHECK(read_file(dir + file) == read_file(again + file));
 }
 
 TEST_CASE("colmap_text: comments, blank lines and CRLF as COLMAP writes and accepts them", "[io][colmap]") {
-  const std::string dir = temp_folder("comments");
+  const std::string dir = colmap_folder("comments");
   write_file(dir + "/cameras.txt",
              "# Camera list with one line of data per camera:\r\n#   CAMERA_ID, MODEL, WIDTH, HEIGHT, PARAMS[]\r\n"
              "\r\n3 PINHOLE 640 480 500 510 320.5 240.5\r\n  # indented comment\n");
@@ -198,7 +198,7 @@ TEST_CASE("colmap_text: a diachron camera and pose project where COLMAP's formul
   RandomStream random(11);
   // Every COLMAP model read from a file, converted to a diachron camera.
   const ColmapModel model = sample_model();
-  const std::string dir = temp_folder("projection");
+  const std::string dir = colmap_folder("projection");
   write_colmap_text(model, dir);
   const ColmapModel back = read_colmap_text(dir);
   int compared = 0;
@@ -255,7 +255,7 @@ TEST_CASE("colmap_text: Fraser P1 (r^2 + 2x^2 in x) is OpenCV's p2; B1 is fx - f
 }
 
 TEST_CASE("colmap_text: every malformed file is an error naming the file and line", "[io][colmap]") {
-  const std::string dir = temp_folder("malformed");
+  const std::string dir = colmap_folder("malformed");
   const ColmapModel model = sample_model();
   write_colmap_text(model, dir);
   const std::string cameras = read_file(dir + "/cameras.txt");
@@ -321,10 +321,10 @@ TEST_CASE("colmap_text: every malformed file is an error naming the file and lin
 TEST_CASE("colmap_text: inconsistent models and unsupported cameras are refused", "[io][colmap]") {
   ColmapModel model = sample_model();
   model.images.at(11).points2d.at(1).point3d_id = 99;
-  CHECK_THROWS_WITH(write_colmap_text(model, temp_folder("inconsistent")), Catch::Contains("point3D 99"));
+  CHECK_THROWS_WITH(write_colmap_text(model, colmap_folder("inconsistent")), Catch::Contains("point3D 99"));
   model = sample_model();
   model.images.at(11).name = "with space.png";
-  CHECK_THROWS_WITH(write_colmap_text(model, temp_folder("inconsistent")), Catch::Contains("white space"));
+  CHECK_THROWS_WITH(write_colmap_text(model, colmap_folder("inconsistent")), Catch::Contains("white space"));
   const ColmapCamera fisheye{1, "OPENCV_FISHEYE", 10, 10, {1, 1, 5, 5, 0, 0, 0, 0}};
   CHECK_THROWS_WITH(camera_from_colmap(fisheye), Catch::Contains("OPENCV_FISHEYE"));
   const ColmapCamera short_params{1, "OPENCV", 10, 10, {1, 1, 5, 5}};
@@ -338,8 +338,8 @@ TEST_CASE("colmap_text: COLMAP 3.8 reads our model, converts it to binary and ba
     return;
   }
   const ColmapModel model = sample_model();
-  const std::string text = temp_folder("colmap_text"), binary = temp_folder("colmap_bin"),
-                    back = temp_folder("colmap_back");
+  const std::string text = colmap_folder("colmap_text"), binary = colmap_folder("colmap_bin"),
+                    back = colmap_folder("colmap_back");
   write_colmap_text(model, text);
   const std::string log = text + "/colmap.log";
   const auto run = [&](const std::string& arguments) {

@@ -23,7 +23,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string temp_folder(const std::string& name) { return diachron::test::fresh_temp_folder("homol_" + name); }
+std::string homol_folder(const std::string& name) { return diachron::test::fresh_temp_folder("homol_" + name); }
 
 std::string slurp(const std::string& path) {
   std::ifstream in(path);
@@ -51,7 +51,7 @@ PointMatches random_matches(std::size_t n, std::uint64_t seed) {
 }  // namespace
 
 TEST_CASE("homol: write then read gives the same points, both directions, exactly", "[io]") {
-  const std::string dir = temp_folder("roundtrip") + "/Homol-Guided";
+  const std::string dir = homol_folder("roundtrip") + "/Homol-Guided";
   const PointMatches matches = random_matches(200, 1);
   diachron::write_homol(dir, "OIS-1971.tif", "IMG_2014.tif", matches);
 
@@ -89,7 +89,7 @@ TEST_CASE("homol: the pixel convention offset is explicit and applied both ways"
   CHECK(diachron::kMicmacHomolPixelShift == 0.0);
   CHECK(diachron::kMicmacHomolPixelShift == diachron::kMicmacPixelShift);
 
-  const std::string dir = temp_folder("shift");
+  const std::string dir = homol_folder("shift");
   const PointMatches one{PointMatch{Eigen::Vector2d(0, 0), Eigen::Vector2d(10, 20), 0.0}};
   diachron::write_homol(dir, "a.tif", "b.tif", one);
   CHECK(slurp(dir + "/Pastisa.tif/b.tif.txt") == "0 0 10 20\n");
@@ -106,7 +106,7 @@ TEST_CASE("homol: the pixel convention offset is explicit and applied both ways"
 }
 
 TEST_CASE("homol: empty lists, blank lines, and what MicMac writes", "[io]") {
-  const std::string dir = temp_folder("empty");
+  const std::string dir = homol_folder("empty");
   diachron::write_homol(dir, "a.tif", "b.tif", {});
   CHECK(fs::exists(dir + "/Pastisa.tif/b.tif.txt"));
   CHECK(fs::exists(dir + "/Pastisb.tif/a.tif.txt"));
@@ -123,7 +123,7 @@ TEST_CASE("homol: empty lists, blank lines, and what MicMac writes", "[io]") {
 }
 
 TEST_CASE("homol: malformed files name the file and the line", "[io]") {
-  const std::string dir = temp_folder("malformed");
+  const std::string dir = homol_folder("malformed");
   const std::string good = "1 2 3 4\n";
   const std::vector<std::pair<std::string, std::string>> cases{
       {"1 2 3\n", ":2: 3 fields"},
@@ -151,7 +151,7 @@ TEST_CASE("homol: malformed files name the file and the line", "[io]") {
 }
 
 TEST_CASE("homol: list_homol_pairs finds every text pair", "[io]") {
-  const std::string dir = temp_folder("list");
+  const std::string dir = homol_folder("list");
   diachron::write_homol(dir, "b.tif", "a.tif", random_matches(3, 2));
   diachron::write_homol(dir, "a.tif", "c.tif", random_matches(3, 3));
   write_text(dir + "/Pastisa.tif/z.tif.dat", "binary");  // MicMac's binary form: not listed

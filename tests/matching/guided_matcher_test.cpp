@@ -26,7 +26,7 @@ using diachron::kPi;
 
 namespace {
 
-constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr double kInfinity = std::numeric_limits<double>::infinity();
 constexpr std::size_t kNone = std::numeric_limits<std::size_t>::max();
 
 double deg(double d) { return d * kPi / 180.0; }
@@ -100,13 +100,13 @@ double oracle_distance(const Features& a, std::size_t i, const Features& b, std:
     nb += y * y;
   }
   if (m == DescriptorDistance::L2) return std::sqrt(s);
-  if (na == 0 || nb == 0) return kInf;
+  if (na == 0 || nb == 0) return kInfinity;
   return std::sqrt(std::max(0.0, 2 - 2 * (s / (std::sqrt(na) * std::sqrt(nb)))));
 }
 
 struct Two {
   std::size_t best = kNone;
-  double d1 = kInf, d2 = kInf;
+  double d1 = kInfinity, d2 = kInfinity;
 };
 
 // Best, then best among the others: no "second best" bookkeeping to get wrong. Ties: lower index.
@@ -119,7 +119,7 @@ Two oracle_two(const Features& from, std::size_t i, const Features& to, const T&
   if (!p.valid) return t;
   const double r = o.search_radius_px * (!reverse && o.scale_search_radius ? p.scale : 1.0);
   const double scale = reverse ? 1 / p.scale : p.scale, rotation = reverse ? -p.rotation : p.rotation;
-  std::vector<double> d(to.size(), kInf);
+  std::vector<double> d(to.size(), kInfinity);
   for (std::size_t j = 0; j < to.size(); ++j)
     if ((to.keypoints[j].position - p.at).squaredNorm() <= r * r &&
         oracle_gates(reverse ? to.keypoints[j] : from.keypoints[i], reverse ? from.keypoints[i] : to.keypoints[j],
@@ -470,7 +470,7 @@ TEST_CASE("guided_match: empty inputs and bad input", "[matching]") {
   nan.descriptors(1, 2) = std::numeric_limits<float>::quiet_NaN();
   CHECK_THROWS_WITH(diachron::guided_match(m, nan, identity, identity), Contains("secondary descriptor row 1"));
   Features bad_kp = m;
-  bad_kp.keypoints[1].position.x() = kInf;
+  bad_kp.keypoints[1].position.x() = kInfinity;
   CHECK_THROWS_WITH(diachron::guided_match(bad_kp, m, identity, identity), Contains("master keypoint 1"));
   bad_kp = m;
   bad_kp.keypoints[0].scale = -2.0;

@@ -73,7 +73,7 @@ std::string read_text(const std::string& path) {
 }
 
 // Generated once for all test cases (the sanitizer build runs them too).
-const Scene& small_scene() {
+const Scene& io_small_scene() {
   static const Scene scene = generate_scene(diachron::test::small_scene_options(21, 80, 20));
   return scene;
 }
@@ -81,7 +81,7 @@ const Scene& small_scene() {
 }  // namespace
 
 TEST_CASE("write_scene then read_scene gives the same scene", "[synth][io]") {
-  const Scene& scene = small_scene();
+  const Scene& scene = io_small_scene();
   const std::string dir = temp_folder("roundtrip");
   write_scene(scene, dir);
   const Scene back = read_scene(dir);
@@ -139,7 +139,7 @@ TEST_CASE("write_scene then read_scene gives the same scene", "[synth][io]") {
 }
 
 TEST_CASE("write_scene: each epoch folder holds what its SfM delivers, the truth is apart", "[synth][io]") {
-  const Scene& scene = small_scene();
+  const Scene& scene = io_small_scene();
   const std::string dir = temp_folder("layout");
   write_scene(scene, dir);
   CHECK(folder_entries(dir) == std::vector<std::string>{"e1", "e2", "truth"});
@@ -203,7 +203,7 @@ TEST_CASE("write_scene: COLMAP 3.8 opens each epoch folder as a model", "[synth]
     WARN("skipped: the colmap binary is not installed (scripts/install_deps.sh --peers installs it)");
     return;
   }
-  const Scene& scene = small_scene();
+  const Scene& scene = io_small_scene();
   const std::string dir = temp_folder("colmap");
   write_scene(scene, dir);
   for (const SyntheticEpoch& epoch : scene.epochs) {
@@ -224,7 +224,7 @@ TEST_CASE("write_scene: COLMAP 3.8 opens each epoch folder as a model", "[synth]
 TEST_CASE("read_scene names the file and line it cannot read", "[synth][io]") {
   CHECK_THROWS_WITH(read_scene(temp_folder("missing")), Catch::Contains("truth/scene.txt"));
 
-  const Scene& scene = small_scene();
+  const Scene& scene = io_small_scene();
   const std::string dir = temp_folder("broken");
   write_scene(scene, dir);
   const std::string truth = dir + "/truth/scene.txt";
@@ -285,7 +285,7 @@ TEST_CASE("read_scene names the file and line it cannot read", "[synth][io]") {
 }
 
 TEST_CASE("read_epoch_folder reads what write_scene wrote, and names what is missing", "[synth][io]") {
-  const Scene& scene = small_scene();
+  const Scene& scene = io_small_scene();
   const std::string dir = temp_folder("epoch_folder");
   write_scene(scene, dir);
   for (std::size_t e = 0; e < scene.epochs.size(); ++e) {

@@ -37,7 +37,7 @@ Image smooth_image(int w, int h) {
   return img;
 }
 
-Image noise_image(int w, int h, std::uint64_t seed) {
+Image tile_noise_image(int w, int h, std::uint64_t seed) {
   diachron::RandomStream rng(seed);
   Image img(w, h);
   for (auto& v : img) v = static_cast<std::uint8_t>(rng.uniform_index(256));
@@ -185,7 +185,7 @@ TEST_CASE("PatchWarp: nodes that do not transfer are skipped or fail the fit wit
 
 TEST_CASE("match_one_to_one: matches come back in image coordinates; core, displacement and patch rules",
           "[tiling]") {
-  const Image master = noise_image(600, 450, 1);
+  const Image master = tile_noise_image(600, 450, 1);
   const Image secondary = smooth_image(1100, 900);
   const Similarity similarity;
   const auto transfer = diachron::make_map_transfer(similarity);
@@ -244,8 +244,8 @@ TEST_CASE("match_one_to_one: matches come back in image coordinates; core, displ
 
 TEST_CASE("match_one_to_one: a content matcher gives the same output on 1 and 4 threads, with progress",
           "[tiling]") {
-  const Image master = noise_image(600, 450, 2);
-  const Image secondary = noise_image(1100, 900, 3);
+  const Image master = tile_noise_image(600, 450, 2);
+  const Image secondary = tile_noise_image(1100, 900, 3);
   const auto transfer = diachron::make_map_transfer(Similarity{});
   // Matches the brightest pixel of each 20 x 20 block of a with the brightest of the same block of b.
   const auto matcher = diachron::make_pair_matcher([](const Image& a, const Image& b) {
@@ -286,7 +286,7 @@ TEST_CASE("match_one_to_one: a content matcher gives the same output on 1 and 4 
 
 TEST_CASE("match_one_to_one: tiles without transfer or off the secondary image are skipped with their reason",
           "[tiling]") {
-  const Image master = noise_image(600, 450, 4);
+  const Image master = tile_noise_image(600, 450, 4);
   const Image secondary = smooth_image(400, 400);
   const Similarity similarity;
   // No transfer right of x = 300; the similarity leaves the small secondary image lower down.
