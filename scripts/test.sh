@@ -15,8 +15,9 @@ echo "== Release build and tests"
 # The test programs at -O1, the examples at -O3 (why: DIACHRON_TEST_COMPILE_OPTIONS in tests/CMakeLists.txt).
 # headers/alone without its link check: -fkeep-inline-functions doubles each building block's
 # compile, and without it the test took 434 s instead of 560 on a 2-core machine where this whole
-# script took 32 minutes with it. The compile check of every header stays. Run the link check before changing a building
-# block's includes: cmake -B build/release -DDIACHRON_TEST_HEADERS_LINK=ON, ctest -R headers/alone.
+# script took 32 minutes with it. The compile check of every header stays. Run the link check
+# before changing a building block's includes: cmake -B build/release -DDIACHRON_TEST_HEADERS_LINK=ON,
+# then ctest -R headers/alone.
 cmake -S "$root" -B "$root/build/release" -DCMAKE_BUILD_TYPE=Release -DDIACHRON_BENCH_IN_ALL=OFF \
       -DDIACHRON_TEST_COMPILE_OPTIONS=-O1 -DDIACHRON_TEST_HEADERS_LINK=OFF >/dev/null
 cmake --build "$root/build/release" -j "$jobs"
