@@ -15,9 +15,10 @@
 # and Ceres doubles a program's build, and the composed headers (matching/ to pipeline/, synth/,
 # vision/, io/, adjustment/) parse for 10 to 20 s each, so they get the compile check only: with 90
 # headers on 2 cores, the link check of every one of them took 6 of CI's 30 minutes.
-# DIACHRON_TEST_HEADERS_LINK_ALL=ON link-checks them too; DIACHRON_TEST_HEADERS_LINK=OFF checks the
-# building blocks' compile only (CI does, see scripts/test.sh). Each program links alone: linked together,
-# one header's inline functions would supply the definitions another header forgot to include.
+# DIACHRON_TEST_HEADERS_LINK_ALL=ON link-checks them too; DIACHRON_TEST_HEADERS_LINK=OFF checks
+# the building blocks' compile only (CI does, see scripts/test.sh). Each program links alone: linked
+# together, one header's inline functions would supply the definitions another header forgot to
+# include.
 #
 # The umbrella header <diachron/diachron.hpp> has no program: it only includes headers that are each
 # checked here, and the consumer test (tests/consumer) compiles it in an outside project.

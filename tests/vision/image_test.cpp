@@ -13,14 +13,9 @@
 #include <diachron/core/raster.hpp>
 #include <diachron/vision/image.hpp>
 
-namespace {
+#include "support/temp_folder.hpp"
 
-std::filesystem::path fresh_temp_dir(const std::string& name) {
-  const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("diachron_vision_" + name);
-  std::filesystem::remove_all(dir);
-  std::filesystem::create_directories(dir);
-  return dir;
-}
+namespace {
 
 diachron::Raster<std::uint8_t> ramp(int w, int h) {
   diachron::Raster<std::uint8_t> r(w, h);
@@ -89,7 +84,7 @@ TEST_CASE("to_raster: a Mat of another type or channel count is an error that na
 }
 
 TEST_CASE("load_gray8 / save_gray8: a PNG round trip is exact; bad files name the path", "[vision]") {
-  const std::filesystem::path dir = fresh_temp_dir("image_test");
+  const std::filesystem::path dir = diachron::test::fresh_temp_folder("vision_image_test");
   const diachron::Raster<std::uint8_t> r = ramp(31, 17);
   const std::string png = (dir / "ramp.png").string();
   diachron::save_gray8(png, r);

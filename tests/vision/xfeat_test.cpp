@@ -24,6 +24,7 @@
 
 #include "support/textures.hpp"
 
+#include "support/temp_folder.hpp"
 #include "support/test_paths.hpp"
 
 namespace {
@@ -48,21 +49,11 @@ Raster<std::uint8_t> rectangles(int w, int h, std::uint64_t seed) {
   return diachron::to_raster<std::uint8_t>(img);
 }
 
-
-
-
-std::filesystem::path xfeat_temp_dir(const std::string& name) {
-  const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("diachron_vision_" + name);
-  std::filesystem::remove_all(dir);
-  std::filesystem::create_directories(dir);
-  return dir;
-}
-
 }  // namespace
 
 TEST_CASE("XFeatExtractor: a missing, empty or non-ONNX model file is a diachron::Error naming the path",
           "[vision]") {
-  const std::filesystem::path dir = xfeat_temp_dir("xfeat_test");
+  const std::filesystem::path dir = diachron::test::fresh_temp_folder("vision_xfeat_test");
   const std::string missing = (dir / "missing.onnx").string();
   CHECK_THROWS_AS(diachron::XFeatExtractor(missing), diachron::Error);
   CHECK_THROWS_WITH(diachron::XFeatExtractor(missing), Catch::Contains(missing) && Catch::Contains("no such file"));
