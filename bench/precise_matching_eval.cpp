@@ -8,6 +8,7 @@
 //                         [--second-pass PX] [--cell PX] [--ground-gsd G] [--no-ncc] [--no-refine]
 //                         [--ncc-correlation] [--calm] [--calm-only changes,sun,cover,film]
 //                         [--max-relief G] [--relief-radius PX] [--preblur S1,S2] [--dump FILE]
+//                         [--affine-step PX]
 //
 // --calm (a diagnostic): the same scenes without their decades, i.e. no landscape change between
 // the epochs and epoch 1 rendered with epoch 2's look (sun, land-cover response, no film defects);
@@ -87,7 +88,7 @@ struct Arguments {
   int corr_radius = -1, corr_window = -1, second_pass = -1, cell = -1;
   double min_score = std::nan(""), min_margin = std::nan("");
   double ground_gsd = std::nan("");
-  double max_relief = std::nan(""), relief_radius = std::nan("");
+  double max_relief = std::nan(""), relief_radius = std::nan(""), affine_step = std::nan("");
   bool no_ncc = false, no_refine = false, ncc_correlation = false, calm = false;
   std::vector<std::string> calm_only;
   std::string dump;
@@ -125,6 +126,7 @@ Arguments parse(int argc, char** argv) {
     else if (s == "--ground-gsd") a.ground_gsd = std::stod(value());
     else if (s == "--max-relief") a.max_relief = std::stod(value());
     else if (s == "--relief-radius") a.relief_radius = std::stod(value());
+    else if (s == "--affine-step") a.affine_step = std::stod(value());
     else if (s == "--no-ncc") a.no_ncc = true;
     else if (s == "--ncc-correlation") a.ncc_correlation = true;
     else if (s == "--no-refine") a.no_refine = true;
@@ -267,6 +269,7 @@ int main(int argc, char** argv) {
     if (std::isfinite(args.ground_gsd)) options.correlation.ground_threshold_gsd = args.ground_gsd;
     if (std::isfinite(args.max_relief)) options.correlation.max_relief_gsd = args.max_relief;
     if (std::isfinite(args.relief_radius)) options.correlation.relief_radius_px = args.relief_radius;
+    if (std::isfinite(args.affine_step)) options.correlation.match.affine_step_px = args.affine_step;
     if (args.no_ncc) options.use_ncc = false;
     if (args.ncc_correlation) options.correlation.use_ncc = true;
     if (args.no_refine) options.ncc.refine = false;
