@@ -15,6 +15,8 @@
 //   staged       the intrinsics freed in three solves as Tapas/Campari do (f and principal point,
 //                then + K1-K3, then all; BundleOptions::staged_intrinsics)
 //   cauchy       Cauchy's loss instead of Huber's (same 1 px scale): large residuals weigh less
+//   shuffled errors   the truth's matches at the same master points, each given the error vector of
+//                another real match (a seeded shuffle): the matches' error without its structure
 //   colmap       Debian's COLMAP 3.8 bundle_adjuster on the same images and tracks (nearest COLMAP
 //                cameras, no affine term; everything free, so its result is brought back onto epoch
 //                2's fixed orientation by the similarity of its epoch-2 centres onto the input's)
@@ -32,6 +34,7 @@
 //
 //   adjustment_eval [--seeds N] [--first-seed S] [--threads N] [--no-colmap] [--colmap-work DIR]
 //                   [--max-relief G] [--cell PX] [--e1-block RxC] [--e1-ties N] [--e2-block RxC]
+//                   [--matches-cache DIR] [--affine-step PX]
 //
 // --max-relief G: precise matching skips master points whose ground is not locally a plane to G
 // secondary GSD (PreciseCorrelationOptions::max_relief_gsd; default off, as match_epochs).
@@ -45,6 +48,13 @@
 // same overlaps and centre. The default 3 x 3 block covers about 1.4 x 1.4 km, less than the film
 // block's 2.2 x 2.0 km, so the film images' outer parts get no inter-epoch match; 5x6 covers the whole
 // film block, as the reference epochs of the paper's datasets cover their historical ones.
+// --matches-cache DIR: precise matching's inter-epoch matches are read from DIR when a file for the
+// seed and the options that shape them (blocks, tie points, cell, relief, affine step) is there, and
+// written there otherwise (full precision, text). Precise matching is most of a seed's time (3 to 6 min
+// with a 5 x 6 reference); the adjustment variants then run on the same matches in seconds. The file
+// name does not know the code: empty DIR after changing the matcher or the scenes.
+// --affine-step PX: the correlation's local-affine step (CorrelationMatchOptions::affine_step_px;
+// default 1 px, 0 = half the window).
 //
 // Prints one line per seed and variant on stderr and a Markdown table (medians over the seeds) on
 // stdout. Not a test: docs/adjustment.md holds its output.
@@ -54,6 +64,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <fstream>
 #include <map>
 #include <optional>
 #include <stdexcept>
@@ -64,6 +75,7 @@
 #include <diachron/adjustment/reprojection_error.hpp>
 #include <diachron/adjustment/tracks.hpp>
 #include <diachron/adjustment/triangulation.hpp>
+#include <diachron/core/random.hpp>
 #include <diachron/eval/check_points.hpp>
 #include <diachron/eval/distortion_difference.hpp>
 #include <diachron/eval/distortion_precision.hpp>
@@ -120,7 +132,7 @@ struct Outcome {
 
 const char* const kVariants[] = {"rough",          "intra only",   "no affine",         "full",
                                  "e2 camera free", "both free",    "oracle e2 frames", "oracle matches",
-                                 "inter sigma 1",  "affine per camera", "staged", "cauchy", "colmap"};
+                                 "inter sigma 1",  "affine per camera", "staged", "cauchy", "shuffled errors", "colmap"};
 
 // Check points of epoch 1 triangulated with `frames` (epoch-2 frame), errors in world metres.
 CheckPointReport check_points(const Scene& scene, const Frames& frames) {
@@ -227,6 +239,38 @@ struct BlockSize {
   }
 };
 
+// The matches cache (--matches-cache): one line per match, "master secondary ax ay bx by score",
+// doubles written with 17 significant digits so that a read gives back the same bits.
+void write_matches(const std::string& path, const std::vector<EpochPairMatches>& matches) {
+  std::ofstream out(path);
+  if (!out) throw std::runtime_error("cannot write the matches cache " + path);
+  out.precision(17);
+  for (const EpochPairMatches& pair : matches)
+    for (const PointMatch& m : pair.matches)
+      out << pair.master << ' ' << pair.secondary << ' ' << m.a.x() << ' ' << m.a.y() << ' ' << m.b.x() << ' '
+          << m.b.y() << ' ' << m.score << '\n';
+  if (!out) throw std::runtime_error("writing the matches cache " + path + " failed");
+}
+
+// std::nullopt when `path` does not exist; throws on a malformed file.
+std::optional<std::vector<EpochPairMatches>> read_matches(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) return std::nullopt;
+  std::vector<EpochPairMatches> matches;
+  std::string line;
+  for (int number = 1; std::getline(in, line); ++number) {
+    std::size_t master = 0, secondary = 0;
+    PointMatch m;
+    if (std::sscanf(line.c_str(), "%zu %zu %lf %lf %lf %lf %lf", &master, &secondary, &m.a.x(), &m.a.y(), &m.b.x(),
+                    &m.b.y(), &m.score) != 7)
+      throw std::runtime_error(path + ":" + std::to_string(number) + ": expected 'master secondary ax ay bx by score'");
+    if (matches.empty() || matches.back().master != master || matches.back().secondary != secondary)
+      matches.push_back({master, secondary, {}});
+    matches.back().matches.push_back(m);
+  }
+  return matches;
+}
+
 // A table cell "a / b" of two medians over the seeds (worst / RMS, or worst image / median image).
 struct MedianPair {
   std::vector<double> first, second;
@@ -248,6 +292,8 @@ int run(int argc, char** argv) {
   int cell = 0;  // 0: the library's default
   BlockSize e1_block, e2_block;
   int e1_ties = -1;  // < 0: the scene's default
+  std::string matches_cache;
+  double affine_step = -1.0;  // < 0: the library's default
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     const auto value = [&]() -> std::string {
@@ -263,17 +309,20 @@ int run(int argc, char** argv) {
     else if (a == "--cell") cell = std::stoi(value());
     else if (a == "--e1-block") e1_block = BlockSize::parse(a, value());
     else if (a == "--e2-block") e2_block = BlockSize::parse(a, value());
+    else if (a == "--matches-cache") matches_cache = value();
+    else if (a == "--affine-step") affine_step = std::stod(value());
     else if (a == "--e1-ties") {
       e1_ties = std::stoi(value());
       if (e1_ties < 0) throw std::runtime_error("--e1-ties needs a count >= 0");
     } else {
       std::fprintf(stderr,
                    "usage: adjustment_eval [--seeds N] [--first-seed S] [--threads N] [--no-colmap] [--colmap-work DIR] "
-                   "[--max-relief G] [--cell PX] [--e1-block RxC] [--e1-ties N] [--e2-block RxC]\n");
+                   "[--max-relief G] [--cell PX] [--e1-block RxC] [--e1-ties N] [--e2-block RxC] [--matches-cache DIR] [--affine-step PX]\n");
       return 1;
     }
   }
   if (colmap) make_folder(colmap_work, "adjustment_eval");  // run_colmap_bundle_adjuster makes one level below it
+  if (!matches_cache.empty()) make_folder(matches_cache, "adjustment_eval");
   std::map<std::string, std::vector<Outcome>> results;
   std::vector<double> inter_matches, inter_correct;
   int coregistered = 0;
@@ -315,11 +364,23 @@ int run(int argc, char** argv) {
     PreciseMatchingOptions precise_options;
     precise_options.correlation.max_relief_gsd = max_relief;
     if (cell > 0) precise_options.correlation.interest.cell_px = cell;
+    if (affine_step >= 0.0) precise_options.correlation.match.affine_step_px = affine_step;
     precise_options.threads = threads;
     t0 = std::chrono::steady_clock::now();
-    const PreciseMatchingReport precise = precise_matching_correlation(p1, p2, helmert, overlap.pairs, precise_options);
+    char cache_name[200];
+    std::snprintf(cache_name, sizeof cache_name, "/seed%llu-e1%dx%d-e2%dx%d-ties%d-cell%d-relief%g-step%g.txt",
+                  static_cast<unsigned long long>(scene_options.seed), scene_options.epochs[0].rows,
+                  scene_options.epochs[0].columns, scene_options.epochs[1].rows, scene_options.epochs[1].columns,
+                  scene_options.epochs[0].tie_points, cell, max_relief, precise_options.correlation.match.affine_step());
+    const std::string cache_path = matches_cache.empty() ? std::string() : matches_cache + cache_name;
+    std::optional<std::vector<EpochPairMatches>> cached;
+    if (!cache_path.empty()) cached = read_matches(cache_path);
+    if (cached) std::fprintf(stderr, "  matches read from %s\n", cache_path.c_str());
+    const std::vector<EpochPairMatches> matches =
+        cached ? *cached
+               : epoch_pair_matches(precise_matching_correlation(p1, p2, helmert, overlap.pairs, precise_options).pairs);
+    if (!cache_path.empty() && !cached) write_matches(cache_path, matches);
     const double matching_seconds = seconds_since(t0);
-    const std::vector<EpochPairMatches> matches = epoch_pair_matches(precise.pairs);
     const MatchTruthScorer truth(scene);
     std::size_t count = 0, correct = 0;
     Vec2 bias = Vec2::Zero();  // mean error of the correct matches, epoch-2 px: a systematic shift shows here
@@ -377,10 +438,30 @@ int run(int argc, char** argv) {
       }
       true_matches.push_back(std::move(t));
     }
+    // The same true matches carrying the real matches' error vectors, shuffled among them: the same
+    // size of error without its structure (its correlation between neighbours and per pair). If the
+    // camera comes back as with exact matches, the structure is what costs, not the size.
+    std::vector<EpochPairMatches> shuffled_matches;
+    {
+      std::vector<Vec2> errors;
+      for (const EpochPairMatches& pair : matches)
+        for (const PointMatch& m : pair.matches) {
+          const MatchTruth mt = truth.transfer({0, static_cast<int>(pair.master)}, {1, static_cast<int>(pair.secondary)}, m.a);
+          if (mt.scored()) errors.push_back(m.b - mt.true_pixel);
+        }
+      RandomStream random(scene_options.seed, 0x5bu);
+      for (std::size_t i = errors.size(); i > 1; --i) std::swap(errors[i - 1], errors[random.uniform_index(i)]);
+      std::size_t next = 0;
+      for (const EpochPairMatches& pair : true_matches) {
+        EpochPairMatches t{pair.master, pair.secondary, {}};
+        for (const PointMatch& m : pair.matches) t.matches.push_back({m.a, m.b + errors[next++], 0.0});
+        shuffled_matches.push_back(std::move(t));
+      }
+    }
     std::vector<Track> full_tracks;  // the tracks of the shipped adjustment, for COLMAP's run
     for (const char* variant :
          {"no affine", "full", "e2 camera free", "both free", "oracle e2 frames", "oracle matches", "inter sigma 1",
-          "affine per camera", "staged", "cauchy"}) {
+          "affine per camera", "staged", "cauchy", "shuffled errors"}) {
       const std::string v = variant;
       Outcome o;
       CombinedAdjustmentOptions options;
@@ -396,7 +477,11 @@ int run(int argc, char** argv) {
         for (std::size_t i = 0; i < e2.images.size(); ++i) reference.frames[i] = e2.epoch_frame(i);
       t0 = std::chrono::steady_clock::now();
       const CombinedAdjustmentResult r =
-          combined_adjustment(c1, reference, v == "oracle matches" ? true_matches : matches, helmert, options);
+          combined_adjustment(c1, reference,
+                              v == "oracle matches"    ? true_matches
+                              : v == "shuffled errors" ? shuffled_matches
+                                                       : matches,
+                              helmert, options);
       o.seconds = seconds_since(t0);
       if (r.report.success) {
         Frames e1_adjusted = r.epoch1;
