@@ -10,6 +10,7 @@
 //   both free    both epochs free, the datum then put back on epoch 2's input centres by a similarity
 //   inter sigma 1    inter-epoch matches weighted as 1 px observations, as the tie points (the
 //                    default weights them as 3 px)
+//   inter sigma X    the same weighted as X px observations, X from --inter-sigma (default 6)
 //   affine per camera   one B1, B2 per camera instead of per image (BundleOptions::affine_scope;
 //                    the scenes' film deformation is one per epoch)
 //   staged       the intrinsics freed in three solves as Tapas/Campari do (f and principal point,
@@ -34,7 +35,7 @@
 //
 //   adjustment_eval [--seeds N] [--first-seed S] [--threads N] [--no-colmap] [--colmap-work DIR]
 //                   [--max-relief G] [--cell PX] [--e1-block RxC] [--e1-ties N] [--e2-block RxC]
-//                   [--matches-cache DIR] [--affine-step PX]
+//                   [--matches-cache DIR] [--affine-step PX] [--inter-sigma PX]
 //
 // --max-relief G: precise matching skips master points whose ground is not locally a plane to G
 // secondary GSD (PreciseCorrelationOptions::max_relief_gsd; default off, as match_epochs).
@@ -55,6 +56,7 @@
 // name does not know the code: empty DIR after changing the matcher or the scenes.
 // --affine-step PX: the correlation's local-affine step (CorrelationMatchOptions::affine_step_px;
 // default 1 px, 0 = half the window).
+// --inter-sigma PX: the inter-epoch weight of the variant "inter sigma X" (px, > 0; default 6).
 //
 // Prints one line per seed and variant on stderr and a Markdown table (medians over the seeds) on
 // stdout. Not a test: docs/adjustment.md holds its output.
@@ -132,7 +134,7 @@ struct Outcome {
 
 const char* const kVariants[] = {"rough",          "intra only",   "no affine",         "full",
                                  "e2 camera free", "both free",    "oracle e2 frames", "oracle matches",
-                                 "inter sigma 1",  "affine per camera", "staged", "cauchy", "shuffled errors", "colmap"};
+                                 "inter sigma 1",  "inter sigma X", "affine per camera", "staged", "cauchy", "shuffled errors", "colmap"};
 
 // Check points of epoch 1 triangulated with `frames` (epoch-2 frame), errors in world metres.
 CheckPointReport check_points(const Scene& scene, const Frames& frames) {
@@ -294,6 +296,7 @@ int run(int argc, char** argv) {
   int e1_ties = -1;  // < 0: the scene's default
   std::string matches_cache;
   double affine_step = -1.0;  // < 0: the library's default
+  double inter_sigma = 6.0;   // the variant "inter sigma X"
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     const auto value = [&]() -> std::string {
@@ -311,13 +314,17 @@ int run(int argc, char** argv) {
     else if (a == "--e2-block") e2_block = BlockSize::parse(a, value());
     else if (a == "--matches-cache") matches_cache = value();
     else if (a == "--affine-step") affine_step = std::stod(value());
+    else if (a == "--inter-sigma") {
+      inter_sigma = std::stod(value());
+      if (!(inter_sigma > 0.0) || !std::isfinite(inter_sigma)) throw std::runtime_error("--inter-sigma needs a finite sigma > 0");
+    }
     else if (a == "--e1-ties") {
       e1_ties = std::stoi(value());
       if (e1_ties < 0) throw std::runtime_error("--e1-ties needs a count >= 0");
     } else {
       std::fprintf(stderr,
                    "usage: adjustment_eval [--seeds N] [--first-seed S] [--threads N] [--no-colmap] [--colmap-work DIR] "
-                   "[--max-relief G] [--cell PX] [--e1-block RxC] [--e1-ties N] [--e2-block RxC] [--matches-cache DIR] [--affine-step PX]\n");
+                   "[--max-relief G] [--cell PX] [--e1-block RxC] [--e1-ties N] [--e2-block RxC] [--matches-cache DIR] [--affine-step PX] [--inter-sigma PX]\n");
       return 1;
     }
   }
@@ -461,7 +468,7 @@ int run(int argc, char** argv) {
     std::vector<Track> full_tracks;  // the tracks of the shipped adjustment, for COLMAP's run
     for (const char* variant :
          {"no affine", "full", "e2 camera free", "both free", "oracle e2 frames", "oracle matches", "inter sigma 1",
-          "affine per camera", "staged", "cauchy", "shuffled errors"}) {
+          "inter sigma X", "affine per camera", "staged", "cauchy", "shuffled errors"}) {
       const std::string v = variant;
       Outcome o;
       CombinedAdjustmentOptions options;
@@ -470,6 +477,7 @@ int run(int argc, char** argv) {
       if (v == "e2 camera free") options.bundle.epochs = {EpochFreedom::all_free(), EpochFreedom{false, true, true}};
       if (v == "both free") options.fix_reference_epoch = false;
       if (v == "inter sigma 1") options.bundle.inter_epoch_sigma_px = options.bundle.intra_epoch_sigma_px;
+      if (v == "inter sigma X") options.bundle.inter_epoch_sigma_px = inter_sigma;
       if (v == "affine per camera") options.bundle.affine_scope = AffineScope::per_camera;
       if (v == "staged") options.bundle.staged_intrinsics = true;
       if (v == "cauchy") options.bundle.loss = RobustLoss::cauchy;
@@ -538,8 +546,10 @@ int run(int argc, char** argv) {
     }
   }
 
-  std::printf("%d seeds (first %llu), %d co-registered; inter-epoch matches per seed: median %.0f, within 3 px %.0f\n\n",
-              seeds, static_cast<unsigned long long>(first_seed), coregistered, median(inter_matches), median(inter_correct));
+  std::printf("%d seeds (first %llu), %d co-registered; inter-epoch matches per seed: median %.0f, within 3 px %.0f; "
+              "\"inter sigma X\": X = %g px\n\n",
+              seeds, static_cast<unsigned long long>(first_seed), coregistered, median(inter_matches), median(inter_correct),
+              inter_sigma);
   std::printf("| variant | seeds | check-point RMS 3D (m) | in GSD | mean abs error X / Y / Z (m) | sigma X / Y / Z (m) | "
               "focal error (px) | principal point error (px) | distortion, worst over the image (px) | distortion over the "
               "observed pixels, worst / RMS (px) | camera with f and pp refitted, worst / RMS (px) | camera beyond a pose, worst / RMS (px) | distortion 1-sigma predicted, worst / RMS (px) | lens part, worst (px) | affine part, worst image / median image (px) | DoD mu / sigma / mean abs (m) | time (s) |\n");
