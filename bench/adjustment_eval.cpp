@@ -49,9 +49,9 @@
 // same overlaps and centre. The default 3 x 3 block covers about 1.4 x 1.4 km, less than the film
 // block's 2.2 x 2.0 km, so the film images' outer parts get no inter-epoch match; 5x6 covers the whole
 // film block, as the reference epochs of the paper's datasets cover their historical ones.
-// --matches-cache DIR: precise matching's inter-epoch matches are read from DIR when a file for the
-// seed and the options that shape them (blocks, tie points, cell, relief, affine step) is there, and
-// written there otherwise (full precision, text). Precise matching is most of a seed's time (3 to 6 min
+// --matches-cache DIR: precise matching's inter-epoch matches are read from DIR when a Homol folder
+// for the seed and the options that shape them (blocks, tie points, cell, relief, affine step) is
+// there, and written there otherwise (full precision). Precise matching is most of a seed's time (3 to 6 min
 // with a 5 x 6 reference); the adjustment variants then run on the same matches in seconds. The file
 // name does not know the code: empty DIR after changing the matcher or the scenes.
 // --affine-step PX: the correlation's local-affine step (CorrelationMatchOptions::affine_step_px;
@@ -87,6 +87,7 @@
 #include <diachron/geometry/procrustes.hpp>
 #include <diachron/io/cameras_json.hpp>
 #include <diachron/io/folders.hpp>
+#include <diachron/io/homol.hpp>
 #include <diachron/pipeline/combined_adjustment.hpp>
 #include <diachron/pipeline/overlapping_pairs.hpp>
 #include <diachron/pipeline/precise_matching.hpp>
@@ -241,34 +242,27 @@ struct BlockSize {
   }
 };
 
-// The matches cache (--matches-cache): one line per match, "master secondary ax ay bx by score",
-// doubles written with 17 significant digits so that a read gives back the same bits.
-void write_matches(const std::string& path, const std::vector<EpochPairMatches>& matches) {
-  std::ofstream out(path);
-  if (!out) throw std::runtime_error("cannot write the matches cache " + path);
-  out.precision(17);
+// The matches cache (--matches-cache): a Homol folder (io/homol.hpp, no pixel shift, so the
+// coordinates read back to the same doubles; scores are not kept, and the adjustment does not use
+// them), images named e1_<i> and e2_<j>, and a file "complete" written last. Pairs are read back in
+// `pairs`' order, the order precise matching reported them in, so the tracks come out the same.
+std::string cache_image(int epoch, std::size_t index) { return "e" + std::to_string(epoch) + "_" + std::to_string(index); }
+
+void write_matches(const std::string& folder, const std::vector<EpochPairMatches>& matches) {
   for (const EpochPairMatches& pair : matches)
-    for (const PointMatch& m : pair.matches)
-      out << pair.master << ' ' << pair.secondary << ' ' << m.a.x() << ' ' << m.a.y() << ' ' << m.b.x() << ' '
-          << m.b.y() << ' ' << m.score << '\n';
-  if (!out) throw std::runtime_error("writing the matches cache " + path + " failed");
+    write_homol(folder, cache_image(1, pair.master), cache_image(2, pair.secondary), pair.matches, 0.0);
+  std::ofstream done(folder + "/complete");
+  if (!done) throw std::runtime_error("cannot write " + folder + "/complete");
 }
 
-// std::nullopt when `path` does not exist; throws on a malformed file.
-std::optional<std::vector<EpochPairMatches>> read_matches(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) return std::nullopt;
+// std::nullopt when `folder` holds no complete cache.
+std::optional<std::vector<EpochPairMatches>> read_matches(const std::string& folder,
+                                                          const std::vector<ImagePairOverlap>& pairs) {
+  if (!is_regular_file(folder + "/complete")) return std::nullopt;
   std::vector<EpochPairMatches> matches;
-  std::string line;
-  for (int number = 1; std::getline(in, line); ++number) {
-    std::size_t master = 0, secondary = 0;
-    PointMatch m;
-    if (std::sscanf(line.c_str(), "%zu %zu %lf %lf %lf %lf %lf", &master, &secondary, &m.a.x(), &m.a.y(), &m.b.x(),
-                    &m.b.y(), &m.score) != 7)
-      throw std::runtime_error(path + ":" + std::to_string(number) + ": expected 'master secondary ax ay bx by score'");
-    if (matches.empty() || matches.back().master != master || matches.back().secondary != secondary)
-      matches.push_back({master, secondary, {}});
-    matches.back().matches.push_back(m);
+  for (const ImagePairOverlap& pair : pairs) {
+    const std::string path = homol_file_path(folder, cache_image(1, pair.master), cache_image(2, pair.secondary));
+    if (is_regular_file(path)) matches.push_back({pair.master, pair.secondary, read_homol(path, 0.0)});
   }
   return matches;
 }
@@ -375,13 +369,13 @@ int run(int argc, char** argv) {
     precise_options.threads = threads;
     t0 = std::chrono::steady_clock::now();
     char cache_name[200];
-    std::snprintf(cache_name, sizeof cache_name, "/seed%llu-e1%dx%d-e2%dx%d-ties%d-cell%d-relief%g-step%g.txt",
+    std::snprintf(cache_name, sizeof cache_name, "/seed%llu-e1%dx%d-e2%dx%d-ties%d-cell%d-relief%g-step%g",
                   static_cast<unsigned long long>(scene_options.seed), scene_options.epochs[0].rows,
                   scene_options.epochs[0].columns, scene_options.epochs[1].rows, scene_options.epochs[1].columns,
                   scene_options.epochs[0].tie_points, cell, max_relief, precise_options.correlation.match.affine_step());
     const std::string cache_path = matches_cache.empty() ? std::string() : matches_cache + cache_name;
     std::optional<std::vector<EpochPairMatches>> cached;
-    if (!cache_path.empty()) cached = read_matches(cache_path);
+    if (!cache_path.empty()) cached = read_matches(cache_path, overlap.pairs);
     if (cached) std::fprintf(stderr, "  matches read from %s\n", cache_path.c_str());
     const std::vector<EpochPairMatches> matches =
         cached ? *cached
@@ -437,11 +431,14 @@ int run(int argc, char** argv) {
     // The same master points matched by the truth (their true pixel in the secondary image): what the
     // adjustment gives when the inter-epoch matches carry no error of their own.
     std::vector<EpochPairMatches> true_matches;
+    std::vector<Vec2> errors;  // each scored match's error vector, in the same order
     for (const EpochPairMatches& pair : matches) {
       EpochPairMatches t{pair.master, pair.secondary, {}};
       for (const PointMatch& m : pair.matches) {
         const MatchTruth mt = truth.transfer({0, static_cast<int>(pair.master)}, {1, static_cast<int>(pair.secondary)}, m.a);
-        if (mt.scored()) t.matches.push_back({m.a, mt.true_pixel});
+        if (!mt.scored()) continue;
+        t.matches.push_back({m.a, mt.true_pixel});
+        errors.push_back(m.b - mt.true_pixel);
       }
       true_matches.push_back(std::move(t));
     }
@@ -450,12 +447,6 @@ int run(int argc, char** argv) {
     // camera comes back as with exact matches, the structure is what costs, not the size.
     std::vector<EpochPairMatches> shuffled_matches;
     {
-      std::vector<Vec2> errors;
-      for (const EpochPairMatches& pair : matches)
-        for (const PointMatch& m : pair.matches) {
-          const MatchTruth mt = truth.transfer({0, static_cast<int>(pair.master)}, {1, static_cast<int>(pair.secondary)}, m.a);
-          if (mt.scored()) errors.push_back(m.b - mt.true_pixel);
-        }
       RandomStream random(scene_options.seed, 0x5bu);
       for (std::size_t i = errors.size(); i > 1; --i) std::swap(errors[i - 1], errors[random.uniform_index(i)]);
       std::size_t next = 0;

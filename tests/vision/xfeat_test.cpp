@@ -22,10 +22,9 @@
 #include <diachron/vision/image.hpp>
 #include <diachron/vision/xfeat.hpp>
 
-#include "support/textures.hpp"
-
 #include "support/temp_folder.hpp"
 #include "support/test_paths.hpp"
+#include "support/textures.hpp"
 
 namespace {
 
