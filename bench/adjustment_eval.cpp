@@ -9,8 +9,9 @@
 //   e2 camera free   the same with epoch 2's camera (not its poses) free too
 //   both free    both epochs free, the datum then put back on epoch 2's input centres by a similarity
 //   inter sigma 1    inter-epoch matches weighted as 1 px observations, as the tie points (the
-//                    default weights them as 3 px)
-//   inter sigma X    the same weighted as X px observations, X from --inter-sigma (default 6)
+//                    default weights them as 6 px)
+//   inter sigma X    the same weighted as X px observations, X from --inter-sigma (default 3, the
+//                    former default)
 //   affine per camera   one B1, B2 per camera instead of per image (BundleOptions::affine_scope;
 //                    the scenes' film deformation is one per epoch)
 //   staged       the intrinsics freed in three solves as Tapas/Campari do (f and principal point,
@@ -56,7 +57,7 @@
 // name does not know the code: empty DIR after changing the matcher or the scenes.
 // --affine-step PX: the correlation's local-affine step (CorrelationMatchOptions::affine_step_px;
 // default 1 px, 0 = half the window).
-// --inter-sigma PX: the inter-epoch weight of the variant "inter sigma X" (px, > 0; default 6).
+// --inter-sigma PX: the inter-epoch weight of the variant "inter sigma X" (px, > 0; default 3).
 //
 // Prints one line per seed and variant on stderr and a Markdown table (medians over the seeds) on
 // stdout. Not a test: docs/adjustment.md holds its output.
@@ -97,11 +98,14 @@
 #include <diachron/vision/sift.hpp>
 
 #include "match_scoring.hpp"
+#include "peak_shape.hpp"
 #include "peers/colmap_bundle_adjuster.hpp"
 
 using namespace diachron;
 using bench::median;
 using bench::seconds_since;
+using bench::peak_shape;
+using bench::PeakShape;
 
 namespace {
 
@@ -135,7 +139,8 @@ struct Outcome {
 
 const char* const kVariants[] = {"rough",          "intra only",   "no affine",         "full",
                                  "e2 camera free", "both free",    "oracle e2 frames", "oracle matches",
-                                 "inter sigma 1",  "inter sigma X", "affine per camera", "staged", "cauchy", "shuffled errors", "colmap"};
+                                 "inter sigma 1",  "inter sigma X", "affine per camera", "staged", "cauchy", "shuffled errors",
+                                 "peak weighted", "peak weighted X", "colmap"};
 
 // Check points of epoch 1 triangulated with `frames` (epoch-2 frame), errors in world metres.
 CheckPointReport check_points(const Scene& scene, const Frames& frames) {
@@ -290,7 +295,7 @@ int run(int argc, char** argv) {
   int e1_ties = -1;  // < 0: the scene's default
   std::string matches_cache;
   double affine_step = -1.0;  // < 0: the library's default
-  double inter_sigma = 6.0;   // the variant "inter sigma X"
+  double inter_sigma = 3.0;   // the variant "inter sigma X"
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     const auto value = [&]() -> std::string {
@@ -456,10 +461,51 @@ int run(int argc, char** argv) {
         shuffled_matches.push_back(std::move(t));
       }
     }
+    // "peak weighted": each match's secondary pixel weighted by its correlation peak's shape
+    // (peak_shape.hpp). Along each principal direction of the peak's curvature the information is
+    // (curvature / the seed's median curvature)^0.5, clamped to [1/4, 4]: on the final matches of
+    // seeds 0-1 the squared error fell about as the square root of the curvature (docs/adjustment.md).
+    // A match without a shape gets a quarter of the median information.
+    std::vector<EpochPairMatches> weighted_matches = matches;
+    {
+      std::vector<std::vector<std::optional<PeakShape>>> shapes(matches.size());
+      std::vector<double> curvatures;
+      for (std::size_t q = 0; q < matches.size(); ++q) {
+        const EpochPairMatches& pair = matches[q];
+        const auto transfer = make_dsm_transfer(frames1[pair.master], e1.dsm, frames2[pair.secondary], helmert);
+        for (const PointMatch& m : pair.matches) {
+          shapes[q].push_back(peak_shape(e1.images[pair.master].pixels, e2.images[pair.secondary].pixels, m.a, m.b,
+                                         transfer, precise_options.correlation.match));
+          if (!shapes[q].back()) continue;
+          const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> es(shapes[q].back()->curvature);
+          for (int j = 0; j < 2; ++j)
+            if (es.eigenvalues()(j) > 0.0) curvatures.push_back(es.eigenvalues()(j));
+        }
+      }
+      const double reference = curvatures.empty() ? 1.0 : median(curvatures);
+      for (std::size_t q = 0; q < matches.size(); ++q) {
+        EpochPairMatches& pair = weighted_matches[q];
+        pair.weights.clear();
+        for (const std::optional<PeakShape>& shape : shapes[q]) {
+          if (!shape) {
+            pair.weights.push_back(0.5 * Eigen::Matrix2d::Identity());
+            continue;
+          }
+          const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> es(shape->curvature);
+          Eigen::Vector2d root;  // the square root of the information per direction
+          for (int j = 0; j < 2; ++j)
+            root(j) = std::pow(std::clamp(es.eigenvalues()(j) / reference, 1.0 / 16.0, 16.0), 0.25);
+          const Eigen::Matrix2d master_weight = es.eigenvectors() * root.asDiagonal() * es.eigenvectors().transpose();
+          // Into secondary px, at the same overall scale: a residual r_b is A r_a.
+          const Eigen::Matrix2d& A = shape->affine;
+          pair.weights.push_back(master_weight * A.inverse() * std::sqrt(std::abs(A.determinant())));
+        }
+      }
+    }
     std::vector<Track> full_tracks;  // the tracks of the shipped adjustment, for COLMAP's run
     for (const char* variant :
          {"no affine", "full", "e2 camera free", "both free", "oracle e2 frames", "oracle matches", "inter sigma 1",
-          "inter sigma X", "affine per camera", "staged", "cauchy", "shuffled errors"}) {
+          "inter sigma X", "affine per camera", "staged", "cauchy", "shuffled errors", "peak weighted", "peak weighted X"}) {
       const std::string v = variant;
       Outcome o;
       CombinedAdjustmentOptions options;
@@ -468,7 +514,7 @@ int run(int argc, char** argv) {
       if (v == "e2 camera free") options.bundle.epochs = {EpochFreedom::all_free(), EpochFreedom{false, true, true}};
       if (v == "both free") options.fix_reference_epoch = false;
       if (v == "inter sigma 1") options.bundle.inter_epoch_sigma_px = options.bundle.intra_epoch_sigma_px;
-      if (v == "inter sigma X") options.bundle.inter_epoch_sigma_px = inter_sigma;
+      if (v == "inter sigma X" || v == "peak weighted X") options.bundle.inter_epoch_sigma_px = inter_sigma;
       if (v == "affine per camera") options.bundle.affine_scope = AffineScope::per_camera;
       if (v == "staged") options.bundle.staged_intrinsics = true;
       if (v == "cauchy") options.bundle.loss = RobustLoss::cauchy;
@@ -479,6 +525,7 @@ int run(int argc, char** argv) {
           combined_adjustment(c1, reference,
                               v == "oracle matches"    ? true_matches
                               : v == "shuffled errors" ? shuffled_matches
+                              : v.rfind("peak weighted", 0) == 0 ? weighted_matches
                                                        : matches,
                               helmert, options);
       o.seconds = seconds_since(t0);

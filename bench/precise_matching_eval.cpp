@@ -18,8 +18,10 @@
 // sun), cover (epoch 2's land-cover response), film (epoch 2's tone, grain, scanner and dust, blur
 // and no JPEG). --preblur S1,S2 blurs each epoch's images (Gaussian sigma in its own px) before
 // matching. --dump FILE writes every final match of the methods run: positions, score, true error
-// and its vector (epoch-2 px, NaN when the truth cannot decide), the truth's status, and its
-// residual to the rough transfer's prediction.
+// and its vector (epoch-2 px, NaN when the truth cannot decide), the truth's status, its residual
+// to the rough transfer's prediction, the correlation surface's second derivatives at the match
+// (hxx hxy hyy, per master px^2, from a quadratic fitted to the scores over +-2 master px) and the
+// transfer's local affine there (a00 a01 a10 a11, secondary px per master px).
 //
 // Methods (comma-separated; default all but xfeat when the model is absent):
 //   baseline        whole-image SIFT (8000 strongest keypoints), ratio 0.8 + mutual, F-RANSAC 3 px
@@ -60,6 +62,7 @@
 #include <diachron/vision/xfeat.hpp>
 
 #include "match_scoring.hpp"
+#include "peak_shape.hpp"
 
 #ifndef DIACHRON_BENCH_MODELS_DIR
 #define DIACHRON_BENCH_MODELS_DIR ""
@@ -70,6 +73,7 @@ using diachron::bench::median;
 using diachron::bench::Scored;
 using diachron::bench::split_list;
 using diachron::bench::seconds_since;
+using diachron::bench::peak_shape;
 
 namespace {
 
@@ -281,7 +285,7 @@ int main(int argc, char** argv) {
     std::map<std::string, MethodResult> results;
     std::FILE* dump = nullptr;
     if (!args.dump.empty() && !(dump = std::fopen(args.dump.c_str(), "w"))) throw Error("cannot write " + args.dump);
-    if (dump) std::fprintf(dump, "# method seed master secondary ax ay bx by score error_px status ex ey rx ry\n");
+    if (dump) std::fprintf(dump, "# method seed master secondary ax ay bx by score error_px status ex ey rx ry hxx hxy hyy a00 a01 a10 a11\n");
     std::vector<double> coreg_rms_cells;
     int coreg_failures = 0;
     std::size_t total_pairs = 0;
@@ -417,14 +421,22 @@ int main(int argc, char** argv) {
         if (dump)
           for (const PrecisePairReport& r : report.pairs) {
             const auto transfer = make_dsm_transfer(frames1[r.master], e1.dsm, frames2[r.secondary], rough.epoch2_from_epoch1);
+            const Raster<std::uint8_t> img1 = p1.load_image(r.master), img2 = p2.load_image(r.secondary);
             for (const PointMatch& pm : r.matches) {
               const MatchTruth t = truth.score({0, static_cast<int>(r.master)}, {1, static_cast<int>(r.secondary)}, pm.a, pm.b);
               const Eigen::Vector2d e = pm.b - t.true_pixel;
               const Eigen::Vector2d res = pm.b - transfer(pm.a).value_or(Eigen::Vector2d::Constant(std::nan("")));
-              std::fprintf(dump, "%s %llu %zu %zu %.3f %.3f %.3f %.3f %.5f %.4f %d %.4f %.4f %.4f %.4f\n", m.c_str(),
+              double hxx = std::nan(""), hxy = std::nan(""), hyy = std::nan("");
+              double a00 = std::nan(""), a01 = std::nan(""), a10 = std::nan(""), a11 = std::nan("");
+              if (const auto shape = peak_shape(img1, img2, pm.a, pm.b, transfer, options.correlation.match)) {
+                // The surface's second derivatives (the negated curvature) and the affine.
+                hxx = -shape->curvature(0, 0); hxy = -shape->curvature(0, 1); hyy = -shape->curvature(1, 1);
+                a00 = shape->affine(0, 0); a01 = shape->affine(0, 1); a10 = shape->affine(1, 0); a11 = shape->affine(1, 1);
+              }
+              std::fprintf(dump, "%s %llu %zu %zu %.3f %.3f %.3f %.3f %.5f %.4f %d %.4f %.4f %.4f %.4f %.5f %.5f %.5f %.4f %.4f %.4f %.4f\n", m.c_str(),
                            static_cast<unsigned long long>(scene_options.seed), r.master, r.secondary, pm.a.x(), pm.a.y(),
                            pm.b.x(), pm.b.y(), pm.score, t.scored() ? t.error_px : std::nan(""),
-                           static_cast<int>(t.status), e.x(), e.y(), res.x(), res.y());
+                           static_cast<int>(t.status), e.x(), e.y(), res.x(), res.y(), hxx, hxy, hyy, a00, a01, a10, a11);
             }
           }
         std::fprintf(stderr, "  %s: %.1f s, median %.0f final correct (< 3 px) per pair so far\n", m.c_str(),

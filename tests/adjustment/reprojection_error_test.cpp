@@ -108,6 +108,16 @@ TEST_CASE("ReprojectionError: residual is the Frame::project error divided by si
   REQUIRE(split->Evaluate(split_blocks, split_residuals, nullptr));
   CHECK(split_residuals[0] == Approx(residuals[0]).margin(1e-12));
   CHECK(split_residuals[1] == Approx(residuals[1]).margin(1e-12));
+
+  // A weight multiplies the pixel difference before the sigma divides it.
+  Eigen::Matrix2d weight;
+  weight << 2.0, 0.5, -0.25, 0.75;
+  std::unique_ptr<ceres::CostFunction> weighted(SplitAffineReprojectionError::create(observed, 0.5, weight));
+  double weighted_residuals[2];
+  REQUIRE(weighted->Evaluate(split_blocks, weighted_residuals, nullptr));
+  const Eigen::Vector2d expected = weight * Eigen::Vector2d(-0.7, 1.1) / 0.5;
+  CHECK(weighted_residuals[0] == Approx(expected.x()).margin(1e-9));
+  CHECK(weighted_residuals[1] == Approx(expected.y()).margin(1e-9));
 }
 
 TEST_CASE("ReprojectionError: Jet derivatives equal numeric differentiation", "[adjustment]") {
@@ -132,6 +142,15 @@ TEST_CASE("ReprojectionError: Jet derivatives equal numeric differentiation", "[
     const auto c = fraser_camera_block(camera);
     const auto a = affine_block(camera);
     std::unique_ptr<ceres::CostFunction> cost(SplitAffineReprojectionError::create(observed, 1.0));
+    check_jacobians(*cost, {std::vector<double>(c.begin(), c.end()), std::vector<double>(a.begin(), a.end()),
+                            pose_values, point});
+  }
+  SECTION("split blocks with an anisotropic weight") {
+    const auto c = fraser_camera_block(camera);
+    const auto a = affine_block(camera);
+    Eigen::Matrix2d weight;
+    weight << 1.5, 0.4, 0.4, 0.3;
+    std::unique_ptr<ceres::CostFunction> cost(SplitAffineReprojectionError::create(observed, 2.0, weight));
     check_jacobians(*cost, {std::vector<double>(c.begin(), c.end()), std::vector<double>(a.begin(), a.end()),
                             pose_values, point});
   }
@@ -162,4 +181,6 @@ TEST_CASE("ReprojectionError: a point behind the camera fails evaluation, bad in
   CHECK_FALSE(cost->Evaluate(blocks, residuals, nullptr));
   CHECK_THROWS_AS(ReprojectionError<FraserAffine>::create(Vec2(1, 2), 0.0), Error);
   CHECK_THROWS_AS(SplitAffineReprojectionError::create(Vec2(NAN, 2), 1.0), Error);
+  CHECK_THROWS_AS(SplitAffineReprojectionError::create(Vec2(1, 2), 1.0, Eigen::Matrix2d::Zero()), Error);
+  CHECK_THROWS_AS(SplitAffineReprojectionError::create(Vec2(1, 2), 1.0, Eigen::Matrix2d::Constant(NAN)), Error);
 }

@@ -143,6 +143,15 @@ TEST_CASE("build_tracks: chains a tie point through matches and drops a track se
     CHECK(t.report.dropped_conflicting == 1);
     CHECK(t.report.dropped_observations == 5);
   }
+  SECTION("a match's weight goes to its secondary observation, the master's stays the identity") {
+    Eigen::Matrix2d w;
+    w << 2.0, 0.1, 0.1, 0.5;
+    const TrackSet t = build_tracks({}, {ImageMatch{{0, p}, {2, r}, w}}, 4);
+    REQUIRE(t.tracks.size() == 1);
+    REQUIRE(t.tracks[0].observations.size() == 2);
+    CHECK(t.tracks[0].observations[0].weight.isIdentity(0.0));
+    CHECK(t.tracks[0].observations[1].weight == w);
+  }
   SECTION("pixels within same_pixel_px are one observation") {
     const TrackSet t = build_tracks(ties, {ImageMatch{{0, p + Eigen::Vector2d(1e-5, 0)}, {2, r}}}, 4);
     REQUIRE(t.tracks.size() == 1);
@@ -153,6 +162,7 @@ TEST_CASE("build_tracks: chains a tie point through matches and drops a track se
 TEST_CASE("build_tracks: bad input throws", "[adjustment]") {
   CHECK_THROWS_AS(build_tracks({{{0, {0, 0}}, {5, {1, 1}}}}, {}, 4), Error);
   CHECK_THROWS_AS(build_tracks({}, {ImageMatch{{0, {NAN, 0}}, {1, {1, 1}}}}, 4), Error);
+  CHECK_THROWS_AS(build_tracks({}, {ImageMatch{{0, {0, 0}}, {1, {1, 1}}, Eigen::Matrix2d::Zero()}}, 4), Error);
   TrackOptions o;
   o.min_observations = 1;
   CHECK_THROWS_AS(build_tracks({}, {}, 4, o), Error);

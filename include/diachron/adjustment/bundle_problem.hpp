@@ -92,6 +92,7 @@ class BundleProblem {
     Vec2 pixel = Vec2::Zero();
     ObservationKind kind = ObservationKind::intra_epoch;
     bool active = true;  ///< false once rejected
+    Eigen::Matrix2d weight = Eigen::Matrix2d::Identity();  ///< TrackObservation::weight
   };
 
   /// Precondition: consistent sizes and indices (image_camera, image_epoch, track image indices,
@@ -144,7 +145,7 @@ class BundleProblem {
         DIACHRON_CHECK(o.image >= 0 && static_cast<std::size_t>(o.image) < n,
                        "BundleInput: track " << t << " names image " << o.image << " of " << n);
         DIACHRON_CHECK(o.pixel.allFinite(), "BundleInput: track " << t << " has a non-finite pixel");
-        observations_.push_back({t, o.image, o.pixel, o.kind, input.points[t].allFinite()});
+        observations_.push_back({t, o.image, o.pixel, o.kind, input.points[t].allFinite(), o.weight});
       }
     for (const GroundControlPoint& g : input.control_points) {
       DIACHRON_CHECK(g.track < input.tracks.size(), "BundleInput: GCP of track " << g.track << " of " << input.tracks.size());
@@ -258,7 +259,7 @@ class BundleProblem {
       image_used[i] = true;
       const double sigma =
           o.kind == ObservationKind::inter_epoch ? options_.inter_epoch_sigma_px : options_.intra_epoch_sigma_px;
-      problem.AddResidualBlock(SplitAffineReprojectionError::create(o.pixel, sigma), make_loss(sigma),
+      problem.AddResidualBlock(SplitAffineReprojectionError::create(o.pixel, sigma, o.weight), make_loss(sigma),
                                cameras_[static_cast<std::size_t>(camera_[i])].data(), affine_block_of(i).data(), poses_[i].data(),
                                points_[o.track].data());
     }

@@ -112,8 +112,13 @@ struct ReprojectionError {
 /// Blocks: camera (8), affine (2), pose (6), point (3); 2 residuals.
 struct SplitAffineReprojectionError {
   /// @param observed pixel, px. @param sigma_px its standard deviation, > 0.
-  SplitAffineReprojectionError(const Vec2& observed, double sigma_px)
-      : u_(observed.x()), v_(observed.y()), inverse_sigma_(1.0 / sigma_px) {}
+  /// @param weight the square root of the observation's information relative to sigma_px: the
+  ///        residual is weight (projected - observed) / sigma_px. Identity: isotropic sigma_px.
+  SplitAffineReprojectionError(const Vec2& observed, double sigma_px,
+                               const Eigen::Matrix2d& weight = Eigen::Matrix2d::Identity())
+      : u_(observed.x()),
+        v_(observed.y()),
+        w_{weight(0, 0) / sigma_px, weight(0, 1) / sigma_px, weight(1, 0) / sigma_px, weight(1, 1) / sigma_px} {}
 
   template <class T>
   bool operator()(const T* const camera, const T* const affine, const T* const pose,
@@ -126,24 +131,30 @@ struct SplitAffineReprojectionError {
                                                 camera[7], affine[0], affine[1]};
     T pixel[2];
     Camera<FraserAffine>::project(camera, params, point_cam, pixel);
-    residuals[0] = (pixel[0] - T(u_)) * T(inverse_sigma_);
-    residuals[1] = (pixel[1] - T(v_)) * T(inverse_sigma_);
+    const T du = pixel[0] - T(u_), dv = pixel[1] - T(v_);
+    residuals[0] = T(w_[0]) * du + T(w_[1]) * dv;
+    residuals[1] = T(w_[2]) * du + T(w_[3]) * dv;
     return true;
   }
 
   /// An autodiff cost function (caller or ceres::Problem owns it).
-  /// Precondition: observed finite, sigma_px finite and > 0 (throws diachron::Error).
-  static ceres::CostFunction* create(const Vec2& observed, double sigma_px = 1.0) {
+  /// Precondition: observed finite, sigma_px finite and > 0, weight finite and invertible (throws
+  /// diachron::Error).
+  static ceres::CostFunction* create(const Vec2& observed, double sigma_px = 1.0,
+                                     const Eigen::Matrix2d& weight = Eigen::Matrix2d::Identity()) {
     DIACHRON_CHECK(observed.allFinite() && std::isfinite(sigma_px) && sigma_px > 0.0,
                    "SplitAffineReprojectionError: the pixel must be finite and sigma_px > 0, got "
                        << sigma_px);
+    DIACHRON_CHECK(weight.allFinite() && std::abs(weight.determinant()) > 1e-12,
+                   "SplitAffineReprojectionError: the weight must be finite and invertible");
     return new ceres::AutoDiffCostFunction<SplitAffineReprojectionError, 2, kFraserCameraBlockSize,
                                            kAffineBlockSize, kPoseBlockSize, 3>(
-        new SplitAffineReprojectionError(observed, sigma_px));
+        new SplitAffineReprojectionError(observed, sigma_px, weight));
   }
 
  private:
-  double u_, v_, inverse_sigma_;
+  double u_, v_;
+  double w_[4];  // weight / sigma_px, row-major
 };
 
 /// The camera block [f, cx, cy, K1, K2, K3, P1, P2] of a FraserAffine camera.

@@ -28,6 +28,9 @@ enum class ObservationKind { intra_epoch, inter_epoch };
 struct ImageMatch {
   ImagePixel a;  ///< e.g. the master image of epoch 1
   ImagePixel b;  ///< e.g. the secondary image of epoch 2
+  /// The square root of b's information relative to the inter-epoch sigma (TrackObservation::weight):
+  /// a matcher that knows its match is less precise along one direction says so here.
+  Eigen::Matrix2d weight_b = Eigen::Matrix2d::Identity();
 };
 
 /// One observation of a track.
@@ -35,6 +38,9 @@ struct TrackObservation {
   int image = 0;
   Eigen::Vector2d pixel = Eigen::Vector2d::Zero();  ///< px
   ObservationKind kind = ObservationKind::intra_epoch;
+  /// The square root of the observation's information relative to its kind's sigma: the
+  /// adjustment's whitened residual is weight (projected - pixel) / sigma. Identity by default.
+  Eigen::Matrix2d weight = Eigen::Matrix2d::Identity();
 };
 
 /// The observations of one 3D point, sorted by image index (one per image).
@@ -138,8 +144,13 @@ inline TrackSet build_tracks(const std::vector<std::vector<ImagePixel>>& tie_poi
     for (std::size_t k = 1; k < tie.size(); ++k) links.emplace_back(first, node(tie[k], ObservationKind::intra_epoch));
   }
   for (const ImageMatch& m : matches) {
+    DIACHRON_CHECK(m.weight_b.allFinite() && std::abs(m.weight_b.determinant()) > 1e-12,
+                   "build_tracks: a match's weight must be finite and invertible");
     const std::size_t a = node(m.a, ObservationKind::inter_epoch);
-    links.emplace_back(a, node(m.b, ObservationKind::inter_epoch));
+    const std::size_t b = node(m.b, ObservationKind::inter_epoch);
+    // A pixel named by several matches keeps the first weight that is not the identity.
+    if (nodes[b].weight.isIdentity(0.0)) nodes[b].weight = m.weight_b;
+    links.emplace_back(a, b);
   }
 
   detail::DisjointSets sets(nodes.size());

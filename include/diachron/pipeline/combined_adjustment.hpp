@@ -38,6 +38,9 @@ struct EpochPairMatches {
   std::size_t master = 0;     ///< image index in epoch 1
   std::size_t secondary = 0;  ///< image index in epoch 2
   PointMatches matches;       ///< a: master pixel, b: secondary pixel, px
+  /// Empty, or one per match: the square root of the secondary pixel's information relative to
+  /// the inter-epoch sigma (ImageMatch::weight_b), e.g. from the correlation peak's shape.
+  std::vector<Eigen::Matrix2d> weights = {};
 };
 
 /// The inter-epoch matches of any list of pair reports with members `master`, `secondary` and
@@ -47,7 +50,7 @@ template <class PairReports>
 std::vector<EpochPairMatches> epoch_pair_matches(const PairReports& pairs) {
   std::vector<EpochPairMatches> out;
   for (const auto& pair : pairs)
-    if (!pair.matches.empty()) out.push_back({pair.master, pair.secondary, pair.matches});
+    if (!pair.matches.empty()) out.push_back({pair.master, pair.secondary, pair.matches, {}});
   return out;
 }
 
@@ -55,14 +58,15 @@ std::vector<EpochPairMatches> epoch_pair_matches(const PairReports& pairs) {
 struct CombinedAdjustmentOptions {
   /// The bundle adjustment. When `bundle.epochs` is empty the stage fills it: epoch 1 all free,
   /// epoch 2 fixed when `fix_reference_epoch` (else free too, and the gauge is fixed internally).
-  /// Inter-epoch matches count as 3 px observations, intra-epoch tie points as 1 px: matches across
-  /// decades err more (correlation matches: median 1.14 epoch-2 px), and systematically, and 1 px
-  /// lets their errors bend epoch 1's camera. On 10 decades seeds 3 px gave equal or smaller
-  /// check-point errors on all 10 and a smaller worst distortion error on 9 (docs/adjustment.md).
-  /// Set 1 px for matches as precise as the tie points.
+  /// Inter-epoch matches count as 6 px observations, intra-epoch tie points as 1 px: matches across
+  /// decades err more (correlation matches: median 1.14 epoch-2 px), and systematically, and a
+  /// heavy weight lets their errors bend epoch 1's camera. On 10 decades seeds, 6 px against 3 px
+  /// gave a smaller worst distortion error on 8 (median 1.50 -> 1.24 px) and check points within
+  /// 0.03 m (median 0.41 -> 0.42 m); with a reference that covers the film block, a smaller
+  /// distortion error on 5 of 5 (docs/adjustment.md). Set 1 px for matches as precise as the tie points.
   BundleOptions bundle = [] {
     BundleOptions o;
-    o.inter_epoch_sigma_px = 3.0;
+    o.inter_epoch_sigma_px = 6.0;
     return o;
   }();
   /// Hold epoch 2's poses, camera and affine parts fixed (its orientation is the reference, as
@@ -133,8 +137,16 @@ inline CombinedAdjustmentResult combined_adjustment(const CombinedEpoch& epoch1,
     DIACHRON_CHECK(pair.master < epoch1.frames.size() && pair.secondary < epoch2.frames.size(),
                    "combined_adjustment: pair (" << pair.master << ", " << pair.secondary << ") outside "
                                                  << n1 << " x " << n2 << " images");
-    for (const PointMatch& m : pair.matches)
-      links.push_back({{static_cast<int>(pair.master), m.a}, {n1 + static_cast<int>(pair.secondary), m.b}});
+    DIACHRON_CHECK(pair.weights.empty() || pair.weights.size() == pair.matches.size(),
+                   "combined_adjustment: pair (" << pair.master << ", " << pair.secondary << ") has "
+                                                 << pair.weights.size() << " weights for " << pair.matches.size()
+                                                 << " matches");
+    for (std::size_t k = 0; k < pair.matches.size(); ++k) {
+      const PointMatch& m = pair.matches[k];
+      links.push_back({{static_cast<int>(pair.master), m.a},
+                       {n1 + static_cast<int>(pair.secondary), m.b},
+                       pair.weights.empty() ? Eigen::Matrix2d::Identity() : pair.weights[k]});
+    }
   }
   TrackSet tracks = build_tracks(ties, links, n1 + n2, options.tracks);
   result.tracks = tracks.report;
