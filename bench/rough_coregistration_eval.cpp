@@ -41,7 +41,8 @@
 //   ROTATIONS rot (0/90/180/270, always) | norot
 // or default/MATCHER/default/default: RoughCoregistrationOptions{} as shipped, and
 // noscale/MATCHER/default/default: the same without scale hypotheses (small images are still
-// enlarged; up0 turns that off), upN[mK][xF]: see parse_config.
+// enlarged; up0 turns that off), nofallback/MATCHER/default/default: the same without the dense
+// correlation fallback, upN[mK][xF] and corr...: see parse_config.
 // The paper's plain SIFT baseline is stretch2/sift/whole/norot. Prints a Markdown table.
 
 #include <algorithm>
@@ -145,10 +146,16 @@ Config parse_config(const std::string& text) {
     o.scale_hypotheses.upsample_below_px = std::stoi(image.substr(2, end - 2));
     return c;
   }
-  // corr: the default with the dense correlation fallback on (RoughCoregistrationOptions::
-  // correlation_fallback), run when every feature hypothesis fails; corrgrad: the same correlating
-  // the heights' gradient (CorrelationSignal::gradient); corrgradN: also coarse_size_px N. A suffix
-  // -samples (corr-samples, corrgrad-samples) weighs peaks by CorrelationStrength::samples.
+  // nofallback: the default without the dense correlation fallback (RoughCoregistrationOptions::
+  // correlation_fallback, on by default), which runs when every feature hypothesis fails.
+  if (image == "nofallback") {
+    o.correlation_fallback = false;
+    return c;
+  }
+  // corr: the default with the fallback on (the default since it is on; the name predates it);
+  // corrgrad: the same correlating the heights' gradient (CorrelationSignal::gradient, the
+  // search's default); corrgradN: also coarse_size_px N. A suffix -samples (corr-samples,
+  // corrgrad-samples) weighs peaks by CorrelationStrength::samples (the search's default).
   const std::string gradient = "corrgrad";
   const std::string samples = "-samples";
   if (image.rfind("corr", 0) == 0 && image.size() > samples.size() &&

@@ -66,6 +66,9 @@ const char* kUsage =
     "  --matcher sift|rootsift|akaze|xfeat    patch/guided features (default rootsift; guided:\n"
     "                                         sift|rootsift|xfeat)\n"
     "  --model PATH                           XFeat ONNX file (with --matcher xfeat)\n"
+    "  --fallback on|off                      dense correlation search of the DSMs when the features\n"
+    "                                         find no co-registration (default on; its answers are\n"
+    "                                         graded low trust; off makes failures fast)\n"
     "  --min-overlap F                        least overlap of a pair, share of the smaller footprint\n"
     "                                         (default 0.1)\n"
     "  --ncc-threshold T                      least NCC of a kept match (default 0.6, MicMac's; the\n"
@@ -239,6 +242,8 @@ void write_report(const std::string& path, const EpochFolder& e1, const EpochFol
   out << "  \"rough_coregistration\": {\"success\": " << (rough.success ? "true" : "false")
       << ", \"message\": " << quoted(rough.message) << ", \"inliers_2d\": " << rough.inliers_2d.size()
       << ", \"inliers_3d\": " << rough.inliers_3d.size() << ", \"rms_3d\": " << rough.rms_3d
+      << ", \"trust\": " << quoted(to_string(rough.trust))
+      << ", \"correlation_fallback_used\": " << (rough.correlation_used ? "true" : "false")
       << ", \"seconds\": " << rough.seconds.total << "},\n";
   out << "  \"overlapping_pairs\": {\"candidates\": " << overlap.candidate_pairs
       << ", \"overlapping\": " << overlap.overlapping_pairs << ", \"kept\": " << overlap.pairs.size()
@@ -272,7 +277,7 @@ int main(int argc, char** argv) {
   std::string dir1, dir2, out_dir, method = "correlation", matcher_name = "rootsift", model_path, measure, affine;
   PreciseMatchingOptions options;
   OverlappingPairsOptions overlap_options;
-  bool quiet = false, pictures = true, adjust = false;
+  bool quiet = false, pictures = true, adjust = false, fallback = true;
   double min_overlap = 0.1;
   std::size_t threads = 0;
 #if DIACHRON_MATCH_EPOCHS_ADJUST
@@ -293,6 +298,11 @@ int main(int argc, char** argv) {
       else if (a == "--measure") measure = value();
       else if (a == "--model") model_path = value();
       else if (a == "--min-overlap") min_overlap = std::stod(value());
+      else if (a == "--fallback") {
+        const std::string f = value();
+        DIACHRON_CHECK(f == "on" || f == "off", "--fallback wants on or off, got '" << f << "'");
+        fallback = f == "on";
+      }
       else if (a == "--ncc-threshold") options.ncc.min_ncc = std::stod(value());
       else if (a == "--no-refine") options.ncc.refine = false;
       else if (a == "--no-ground-filter") options.use_ground_filter = false;
@@ -354,6 +364,7 @@ int main(int argc, char** argv) {
     RoughCoregistrationOptions rough_options;
     rough_options.threads = threads;
     rough_options.progress = progress;
+    rough_options.correlation_fallback = fallback;
     const RoughCoregistrationReport rough =
         rough_coregistration(e1.dsm, e2.dsm, ExtractorPairMatcher<SiftExtractor>(SiftExtractor{}), rough_options);
     std::printf("rough co-registration: %s\n", rough.message.c_str());

@@ -196,6 +196,7 @@ TEST_CASE("rough_coregistration: a masked matcher receives the DSM validity erod
       true);
   diachron::RoughCoregistrationOptions options;
   options.scale_hypotheses.enabled = false;  // one call at the DSM's own resolution: its masks
+  options.correlation_fallback = false;      // it would find the DSM in itself without features
   const auto report = diachron::rough_coregistration(dsm, dsm, recording, options);
   REQUIRE_FALSE(report.success);  // no matches
   REQUIRE(report.hypotheses.size() == 1);  // the flag of make_pair_matcher was heard
@@ -267,6 +268,9 @@ TEST_CASE("rough_coregistration: the trust grade separates matches that agree in
   REQUIRE_FALSE(rejected.success);
   CHECK(rejected.trust == diachron::RoughCoregistrationTrust::kNone);
   CHECK(rejected.message.find("max_rms_3d_cells") != std::string::npos);
+  // The caller asked for agreement in 3D, which the correlation fallback cannot show: it stays out.
+  CHECK(options.correlation_fallback);
+  CHECK_FALSE(rejected.correlation_ran);
 
   // Too few 3D inliers for a high grade, however small the residuals.
   options.max_rms_3d_cells = std::numeric_limits<double>::infinity();
@@ -356,6 +360,7 @@ TEST_CASE("rough_coregistration: masks reach a FeaturePairMatcher whose extracto
   const MaskedImageMatcher matcher;
   diachron::RoughCoregistrationOptions options;
   options.scale_hypotheses.enabled = false;  // no match: scale hypotheses would call it again
+  options.correlation_fallback = false;      // the calls are what is tested, not the answer
   diachron::rough_coregistration(dsm, dsm, matcher, options);
   CHECK(matcher.masked_calls->load() == 1);
   CHECK(matcher.plain_calls->load() == 0);
@@ -386,6 +391,7 @@ TEST_CASE("rough_coregistration: a 4x resolution gap needs the scale hypotheses"
   diachron::RoughCoregistrationOptions without;
   without.scale_hypotheses.enabled = false;
   without.scale_hypotheses.upsample_below_px = 0;  // neither coarser levels nor enlarged images
+  without.correlation_fallback = false;              // nor the dense search: the feature path alone
   const auto failed = diachron::rough_coregistration(c.master, c.secondary, sift_matcher(), without);
   INFO("without: " << failed.message);
   CHECK_FALSE(failed.success);
@@ -483,10 +489,13 @@ struct BlindMatcher {
 };
 }  // namespace
 
-TEST_CASE("rough_coregistration: the correlation fallback answers when the features find nothing", "[pipeline]") {
+TEST_CASE("rough_coregistration: the correlation fallback (on by default) answers when the features find nothing",
+          "[pipeline]") {
   const diachron::CoregistrationCase c = synthetic_case(7);
   diachron::RoughCoregistrationOptions options;
+  CHECK(options.correlation_fallback);
   options.scale_hypotheses.enabled = false;  // one failing feature hypothesis is enough here
+  options.correlation_fallback = false;
   const auto without = diachron::rough_coregistration(c.master, c.secondary, BlindMatcher{}, options);
   CHECK_FALSE(without.success);
   CHECK_FALSE(without.correlation_ran);
