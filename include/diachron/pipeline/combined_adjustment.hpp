@@ -39,7 +39,7 @@ struct EpochPairMatches {
   std::size_t secondary = 0;  ///< image index in epoch 2
   PointMatches matches;       ///< a: master pixel, b: secondary pixel, px
   /// Empty, or one per match: the square root of the secondary pixel's information relative to
-  /// the inter-epoch sigma (ImageMatch::weight_b), e.g. from the correlation peak's shape.
+  /// the inter-epoch sigma (ImageMatch::weight_b), e.g. from a least-squares matcher's covariance.
   std::vector<Eigen::Matrix2d> weights = {};
 };
 
