@@ -62,8 +62,9 @@ struct CombinedAdjustmentOptions {
   /// decades err more (correlation matches: median 1.14 epoch-2 px), and systematically, and a
   /// heavy weight lets their errors bend epoch 1's camera. On 10 decades seeds, 6 px against 3 px
   /// gave a smaller worst distortion error on 8 (median 1.50 -> 1.24 px) and check points within
-  /// 0.03 m (median 0.41 -> 0.42 m); with a reference that covers the film block, a smaller
-  /// distortion error on 5 of 5 (docs/adjustment.md). Set 1 px for matches as precise as the tie points.
+  /// 0.03 m (median 0.41 -> 0.42 m); with a reference that covers the film block, smaller on 7 of 10
+  /// and larger on 2 (median 0.99 -> 0.79 px; docs/adjustment.md). Set 1 px for matches as precise
+  /// as the tie points.
   BundleOptions bundle = [] {
     BundleOptions o;
     o.inter_epoch_sigma_px = 6.0;
