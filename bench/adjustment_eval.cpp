@@ -283,6 +283,60 @@ struct MedianPair {
 };
 
 // The whole run; main() turns what it throws (a bad argument, a failed scene) into one line and exit 1.
+// "peak weighted": each match's secondary pixel weighted by its correlation peak's shape
+// (peak_shape.hpp). Along each principal direction of the peak's curvature the information is
+// (curvature / the seed's median curvature)^0.5, clamped to [1/4, 4]: on the final matches of
+// seeds 0-1 the squared error fell about as the square root of the curvature (docs/adjustment.md).
+// A match without a shape gets a quarter of the median information.
+std::vector<EpochPairMatches> peak_weighted(const std::vector<EpochPairMatches>& matches, const Scene& scene,
+                                            const Frames& frames1, const Frames& frames2, const Helmert3& helmert,
+                                            const CorrelationMatchOptions& correlation) {
+  struct Shape {
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> curvature;  // principal curvatures and directions
+    Eigen::Matrix2d affine;
+  };
+  const SyntheticEpoch& e1 = scene.epochs[0];
+  const SyntheticEpoch& e2 = scene.epochs[1];
+  std::vector<std::vector<std::optional<Shape>>> shapes(matches.size());
+  std::vector<double> curvatures;
+  for (std::size_t q = 0; q < matches.size(); ++q) {
+    const EpochPairMatches& pair = matches[q];
+    const auto transfer = make_dsm_transfer(frames1[pair.master], e1.dsm, frames2[pair.secondary], helmert);
+    for (const PointMatch& m : pair.matches) {
+      const std::optional<PeakShape> shape =
+          peak_shape(e1.images[pair.master].pixels, e2.images[pair.secondary].pixels, m.a, m.b, transfer, correlation);
+      if (!shape) {
+        shapes[q].emplace_back();
+        continue;
+      }
+      shapes[q].push_back(Shape{Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(shape->curvature), shape->affine});
+      for (int j = 0; j < 2; ++j)
+        if (shapes[q].back()->curvature.eigenvalues()(j) > 0.0) curvatures.push_back(shapes[q].back()->curvature.eigenvalues()(j));
+    }
+  }
+  const double reference = curvatures.empty() ? 1.0 : median(curvatures);
+  std::vector<EpochPairMatches> out = matches;
+  for (std::size_t q = 0; q < matches.size(); ++q) {
+    std::vector<Eigen::Matrix2d>& weights = out[q].weights;
+    weights.clear();
+    for (const std::optional<Shape>& shape : shapes[q]) {
+      if (!shape) {
+        weights.push_back(0.5 * Eigen::Matrix2d::Identity());
+        continue;
+      }
+      const auto& es = shape->curvature;
+      Eigen::Vector2d root;  // the square root of the information per direction
+      for (int j = 0; j < 2; ++j)
+        root(j) = std::pow(std::clamp(es.eigenvalues()(j) / reference, 1.0 / 16.0, 16.0), 0.25);
+      const Eigen::Matrix2d master_weight = es.eigenvectors() * root.asDiagonal() * es.eigenvectors().transpose();
+      // Into secondary px, at the same overall scale: a residual r_b is A r_a.
+      const Eigen::Matrix2d& A = shape->affine;
+      weights.push_back(master_weight * A.inverse() * std::sqrt(std::abs(A.determinant())));
+    }
+  }
+  return out;
+}
+
 int run(int argc, char** argv) {
   int seeds = 5;
   std::uint64_t first_seed = 0;
@@ -461,52 +515,12 @@ int run(int argc, char** argv) {
         shuffled_matches.push_back(std::move(t));
       }
     }
-    // "peak weighted": each match's secondary pixel weighted by its correlation peak's shape
-    // (peak_shape.hpp). Along each principal direction of the peak's curvature the information is
-    // (curvature / the seed's median curvature)^0.5, clamped to [1/4, 4]: on the final matches of
-    // seeds 0-1 the squared error fell about as the square root of the curvature (docs/adjustment.md).
-    // A match without a shape gets a quarter of the median information.
-    std::vector<EpochPairMatches> weighted_matches = matches;
-    {
-      std::vector<std::vector<std::optional<PeakShape>>> shapes(matches.size());
-      std::vector<double> curvatures;
-      for (std::size_t q = 0; q < matches.size(); ++q) {
-        const EpochPairMatches& pair = matches[q];
-        const auto transfer = make_dsm_transfer(frames1[pair.master], e1.dsm, frames2[pair.secondary], helmert);
-        for (const PointMatch& m : pair.matches) {
-          shapes[q].push_back(peak_shape(e1.images[pair.master].pixels, e2.images[pair.secondary].pixels, m.a, m.b,
-                                         transfer, precise_options.correlation.match));
-          if (!shapes[q].back()) continue;
-          const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> es(shapes[q].back()->curvature);
-          for (int j = 0; j < 2; ++j)
-            if (es.eigenvalues()(j) > 0.0) curvatures.push_back(es.eigenvalues()(j));
-        }
-      }
-      const double reference = curvatures.empty() ? 1.0 : median(curvatures);
-      for (std::size_t q = 0; q < matches.size(); ++q) {
-        EpochPairMatches& pair = weighted_matches[q];
-        pair.weights.clear();
-        for (const std::optional<PeakShape>& shape : shapes[q]) {
-          if (!shape) {
-            pair.weights.push_back(0.5 * Eigen::Matrix2d::Identity());
-            continue;
-          }
-          const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> es(shape->curvature);
-          Eigen::Vector2d root;  // the square root of the information per direction
-          for (int j = 0; j < 2; ++j)
-            root(j) = std::pow(std::clamp(es.eigenvalues()(j) / reference, 1.0 / 16.0, 16.0), 0.25);
-          const Eigen::Matrix2d master_weight = es.eigenvectors() * root.asDiagonal() * es.eigenvectors().transpose();
-          // Into secondary px, at the same overall scale: a residual r_b is A r_a.
-          const Eigen::Matrix2d& A = shape->affine;
-          pair.weights.push_back(master_weight * A.inverse() * std::sqrt(std::abs(A.determinant())));
-        }
-      }
-    }
+    const std::vector<EpochPairMatches> weighted_matches =
+        peak_weighted(matches, scene, frames1, frames2, helmert, precise_options.correlation.match);
     std::vector<Track> full_tracks;  // the tracks of the shipped adjustment, for COLMAP's run
-    for (const char* variant :
-         {"no affine", "full", "e2 camera free", "both free", "oracle e2 frames", "oracle matches", "inter sigma 1",
-          "inter sigma X", "affine per camera", "staged", "cauchy", "shuffled errors", "peak weighted", "peak weighted X"}) {
+    for (const char* variant : kVariants) {
       const std::string v = variant;
+      if (v == "rough" || v == "intra only" || v == "colmap") continue;  // judged above and below
       Outcome o;
       CombinedAdjustmentOptions options;
       CombinedEpoch reference = c2;
