@@ -11,10 +11,10 @@
 #include <catch2/catch.hpp>
 #include <gdal_priv.h>
 #include <ogr_spatialref.h>
-#include <unistd.h>
 
 #include <diachron/io/geotiff.hpp>
 
+#include "support/temp_folder.hpp"
 #include "support/test_paths.hpp"
 
 using diachron::Dsm;
@@ -27,11 +27,7 @@ namespace {
 /// A fresh temporary folder for one test case, removed afterwards.
 struct TempDir {
   fs::path path;
-  explicit TempDir(const std::string& name) {
-    path = fs::temp_directory_path() / ("diachron_geotiff_" + name + "_" + std::to_string(::getpid()));
-    fs::remove_all(path);
-    fs::create_directories(path);
-  }
+  explicit TempDir(const std::string& name) : path(diachron::test::fresh_temp_folder("geotiff_" + name)) {}
   ~TempDir() {
     std::error_code ec;
     fs::remove_all(path, ec);

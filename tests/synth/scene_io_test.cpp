@@ -27,6 +27,7 @@
 #include "support/colmap_projection.hpp"
 #include "support/rasters.hpp"
 #include "support/scenes.hpp"
+#include "support/temp_folder.hpp"
 #endif
 
 using namespace diachron;
@@ -35,10 +36,7 @@ using namespace diachron;
 
 namespace {
 
-std::string temp_folder(const std::string& name) {
-  const char* base = std::getenv("TMPDIR");
-  return std::string(base ? base : "/tmp") + "/diachron_synth_" + name + "_" + std::to_string(::getpid());
-}
+std::string temp_folder(const std::string& name) { return diachron::test::temp_path("synth_" + name); }
 
 void check_pose(const Pose& a, const Pose& b) {
   CHECK((a.cam_from_world_rotation() - b.cam_from_world_rotation()).cwiseAbs().maxCoeff() < 1e-14);

@@ -15,6 +15,8 @@
 #include <diachron/matching/point_match.hpp>
 #include <diachron/vision/draw_matches.hpp>
 
+#include "support/temp_folder.hpp"
+
 namespace {
 
 diachron::PointMatch horizontal(double y) {
@@ -61,9 +63,7 @@ TEST_CASE("draw_matches: side by side canvas, inliers green, outliers red, no ma
 }
 
 TEST_CASE("write_matches_png: writes a readable PNG; bad input throws diachron::Error", "[vision]") {
-  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "diachron_vision_draw_test";
-  std::filesystem::remove_all(dir);
-  std::filesystem::create_directories(dir);
+  const std::filesystem::path dir = diachron::test::fresh_temp_folder("vision_draw_test");
   const diachron::Raster<std::uint8_t> a(30, 20, 10);
   const diachron::Raster<std::uint8_t> b(30, 25, 200);
   const std::vector<diachron::PointMatch> matches{horizontal(5.0)};
