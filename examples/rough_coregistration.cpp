@@ -7,6 +7,8 @@
 //   DIR/helmert.json  {"scale", "rotation" (3x3 row-major), "translation"}: X2 = scale R X1 + translation
 //   DIR/report.json   counts per rotation hypothesis and stage, timings
 //   DIR/matches.png   the DSM images side by side, 2D inliers green, other tentative matches red
+// DSMs in a geographic CRS (degrees) are refused unless --reproject names a projected CRS for
+// both; the Helmert then maps between the reprojected frames (report.json's "frame").
 // Exit status: 0 success, 2 no co-registration found (reason printed), 1 bad input.
 // The composition it runs is pipeline/rough_coregistration.hpp; docs/rough-coregistration.md says
 // how its defaults were chosen.
@@ -17,7 +19,9 @@
 #include <iostream>
 #include <memory>
 #include <string>
+#include <utility>
 
+#include <diachron/io/dsm_reproject.hpp>
 #include <diachron/io/folders.hpp>
 #include <diachron/io/geotiff.hpp>
 #include <diachron/pipeline/rough_coregistration.hpp>
@@ -48,6 +52,8 @@ const char* kUsage =
     "  --fallback off|heights|gradient       dense correlation search when the features find nothing\n"
     "                                        (small coarse DSMs against fine ones; default gradient,\n"
     "                                        the measured best; heights the earlier search)\n"
+    "  --reproject utm|CRS                   warp both DSMs to this CRS first (utm: the WGS 84 UTM\n"
+    "                                        zone of the master's centre); needed for geographic DSMs\n"
     "  --threshold PX                        2D RANSAC threshold, DSM pixels (default 10)\n"
     "  --threads N                           worker threads, 0 = all cores (default 0)\n"
     "  --seed S                              random seed (default 0)\n"
@@ -64,7 +70,8 @@ void write_helmert(const std::string& path, const Helmert3& h) {
       << "]\n}\n";
 }
 
-void write_report(const std::string& path, const RoughCoregistrationReport& r, const std::string& matcher) {
+void write_report(const std::string& path, const RoughCoregistrationReport& r, const std::string& matcher,
+                  const std::string& frame) {
   std::ofstream out(path);
   DIACHRON_CHECK(out, "cannot write " << path);
   auto quoted = [](const std::string& s) {
@@ -73,7 +80,7 @@ void write_report(const std::string& path, const RoughCoregistrationReport& r, c
     return q + "\"";
   };
   out << "{\n  \"success\": " << (r.success ? "true" : "false") << ",\n  \"message\": " << quoted(r.message)
-      << ",\n  \"matcher\": " << quoted(matcher) << ",\n  \"best_rotation_deg\": " << r.best_rotation_deg
+      << ",\n  \"matcher\": " << quoted(matcher) << ",\n  \"frame\": " << quoted(frame) << ",\n  \"best_rotation_deg\": " << r.best_rotation_deg
       << ",\n  \"tile_pairs_per_hypothesis\": " << r.tile_pairs << ",\n  \"hypotheses\": [";
   for (std::size_t i = 0; i < r.hypotheses.size(); ++i) {
     const auto& h = r.hypotheses[i];
@@ -119,7 +126,7 @@ DsmImageKind parse_image(const std::string& s) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string master_path, secondary_path, out_dir, matcher_name = "sift", model_path;
+  std::string master_path, secondary_path, out_dir, matcher_name = "sift", model_path, reproject;
   RoughCoregistrationOptions options;
   bool quiet = false;
   try {
@@ -160,6 +167,7 @@ int main(int argc, char** argv) {
           options.correlation_search.strength = CorrelationStrength::share;
         }
       }
+      else if (a == "--reproject") reproject = value();
       else if (a == "--threshold") options.ransac_2d.threshold = std::stod(value());
       else if (a == "--threads") options.threads = std::stoul(value());
       else if (a == "--seed") options.ransac_2d.seed = std::stoull(value());
@@ -184,8 +192,22 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "\r%s: %zu/%zu ", e.stage.c_str(), e.done, e.total);
         if (e.done == e.total) std::fprintf(stderr, "\n");
       };
-    const Dsm master = read_geotiff_dsm(master_path);
-    const Dsm secondary = read_geotiff_dsm(secondary_path);
+    Dsm master = read_geotiff_dsm(master_path);
+    Dsm secondary = read_geotiff_dsm(secondary_path);
+    // "frame": what the Helmert's coordinates are, for the reader of report.json.
+    std::string frame = "the DSMs' own CRSs";
+    if (!reproject.empty()) {
+      const std::string target = reproject == "utm" ? utm_crs_of(master) : reproject;
+      if (!quiet) std::fprintf(stderr, "reprojecting both DSMs to %s\n", target.substr(0, 60).c_str());
+      master = reproject_dsm(master, target);
+      secondary = reproject_dsm(secondary, target);
+      frame = target;
+    } else {
+      for (const auto& [dsm, path] : {std::pair<const Dsm*, std::string>{&master, master_path}, {&secondary, secondary_path}})
+        DIACHRON_CHECK(crs_kind(dsm->crs()) != CrsKind::geographic,
+                       "'" << path << "' is in a geographic CRS (degrees horizontally, heights in metres): "
+                           "pass --reproject utm (or a projected CRS) to warp both DSMs first");
+    }
     make_folders(out_dir, "rough_coregistration");
 
     RoughCoregistrationReport report;
@@ -202,7 +224,7 @@ int main(int argc, char** argv) {
       DIACHRON_CHECK(false, "unknown --matcher '" << matcher_name << "'");
     }
 
-    write_report(out_dir + "/report.json", report, matcher_name);
+    write_report(out_dir + "/report.json", report, matcher_name, frame);
     std::vector<bool> mask(report.tentative_2d.size(), false);
     for (std::size_t i : report.inlier_indices_2d) mask[i] = true;
     // The winner's pixels are those of its (possibly coarsened or enlarged) images: image pixel i is

@@ -50,6 +50,7 @@
 #include <diachron/camera/frame.hpp>
 #include <diachron/camera/micmac_conversion.hpp>
 #include <diachron/camera/pose.hpp>
+#include <diachron/terrain/crs_kind.hpp>
 #include <diachron/terrain/dsm.hpp>
 #include <diachron/terrain/dsm_correlation_search.hpp>
 #include <diachron/terrain/dsm_image.hpp>

@@ -8,7 +8,10 @@
 #include <mutex>
 #include <vector>
 
+#include <ogr_spatialref.h>
+
 #include <diachron/eval/coregistration_case.hpp>
+#include <diachron/io/dsm_reproject.hpp>
 #include <diachron/io/geotiff.hpp>
 #include <diachron/pipeline/rough_coregistration.hpp>
 #include <diachron/vision/extractor_pair_matcher.hpp>
@@ -126,6 +129,93 @@ TEST_CASE("rough_coregistration: a DSM full of holes or constant gives a clear f
   const auto r2 = diachron::rough_coregistration(world, flat_dsm, sift_matcher());
   REQUIRE_FALSE(r2.success);
   REQUIRE_FALSE(r2.message.empty());
+}
+
+TEST_CASE("rough_coregistration: a DSM in a geographic CRS is refused, naming the remedy", "[pipeline]") {
+  const diachron::Dsm world = synthetic_world();
+  const std::string wgs84 =
+      R"(GEOGCS["WGS 84",DATUM["WGS_1984",SPHEROID["WGS 84",6378137,298.257223563]],PRIMEM["Greenwich",0],)"
+      R"(UNIT["degree",0.0174532925199433]])";
+  const diachron::Dsm degrees(world.heights(), world.transform(), wgs84);
+  CHECK_THROWS_WITH(diachron::rough_coregistration(degrees, world, sift_matcher()),
+                    Catch::Contains("master DSM is in a geographic CRS") && Catch::Contains("reproject_dsm"));
+  CHECK_THROWS_WITH(diachron::rough_coregistration(world, degrees, sift_matcher()),
+                    Catch::Contains("secondary DSM is in a geographic CRS"));
+}
+
+namespace {
+
+// `dsm`'s cells [x0, x0 + w) x [y0, y0 + h), georeferenced as they were.
+diachron::Dsm crop(const diachron::Dsm& dsm, int x0, int y0, int w, int h) {
+  diachron::Raster<float> z(w, h);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) z(x, y) = dsm.heights()(x0 + x, y0 + y);
+  diachron::GeoTransform gt = dsm.transform();
+  gt.c[0] += x0 * gt.c[1] + y0 * gt.c[2];
+  gt.c[3] += x0 * gt.c[4] + y0 * gt.c[5];
+  return diachron::Dsm(std::move(z), gt, dsm.crs());
+}
+
+}  // namespace
+
+TEST_CASE("rough_coregistration: the SRTM pair shifted by (3, 5) cells, reprojected from degrees to UTM",
+          "[pipeline]") {
+  // demcompare's known-truth case: a real SRTM 3" DEM and the same DEM blurred and shifted by
+  // (3, 5) cells, both in WGS 84 degrees. The centre 360 x 360 cells keep the test short.
+  const auto ref_path = diachron::test::data_file("srtm-demcompare/srtm_ref.tif");
+  const auto sec_path = diachron::test::data_file("srtm-demcompare/srtm_blurred_and_shifted.tif");
+  DIACHRON_REQUIRE_FILE_OR_SKIP(ref_path, "srtm-demcompare/srtm_ref.tif");
+  DIACHRON_REQUIRE_FILE_OR_SKIP(sec_path, "srtm-demcompare/srtm_blurred_and_shifted.tif");
+  const diachron::Dsm ref = crop(diachron::read_geotiff_dsm(*ref_path), 320, 320, 360, 360);
+  const diachron::Dsm sec = crop(diachron::read_geotiff_dsm(*sec_path), 320, 320, 360, 360);
+  REQUIRE(ref.transform().c == sec.transform().c);
+
+  // Oracle: the integer shift (i, j) with sec(x + i, y + j) closest to ref(x, y), by brute force.
+  Eigen::Vector2d truth(0.0, 0.0);
+  double best = std::numeric_limits<double>::infinity();
+  for (int j = -8; j <= 8; ++j)
+    for (int i = -8; i <= 8; ++i) {
+      double sum = 0.0;
+      int n = 0;
+      for (int y = 10; y < 350; y += 2)
+        for (int x = 10; x < 350; x += 2)
+          if (ref.valid(x, y) && sec.valid(x + i, y + j)) {
+            sum += std::abs(sec.heights()(x + i, y + j) - ref.heights()(x, y));
+            ++n;
+          }
+      if (n > 0 && sum / n < best) best = sum / n, truth = Eigen::Vector2d(i, j);
+    }
+  REQUIRE(truth.cwiseAbs() == Eigen::Vector2d(3.0, 5.0));  // the data's README, up to the sign
+
+  CHECK_THROWS_WITH(diachron::rough_coregistration(ref, sec, sift_matcher()), Catch::Contains("geographic CRS"));
+  const std::string utm = diachron::utm_crs_of(ref);
+  const auto report = diachron::rough_coregistration(diachron::reproject_dsm(ref, utm),
+                                                     diachron::reproject_dsm(sec, utm), sift_matcher());
+  INFO(report.message);
+  REQUIRE(report.success);
+  CHECK(report.trust == diachron::RoughCoregistrationTrust::kHigh);
+
+  // The Helmert, applied in UTM, moves the crop's centre by the oracle's shift in the input grid.
+  OGRSpatialReference wgs84, utm_srs;
+  wgs84.SetFromUserInput(ref.crs().c_str());
+  utm_srs.SetFromUserInput(utm.c_str());
+  wgs84.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+  utm_srs.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+  const std::unique_ptr<OGRCoordinateTransformation> forward(OGRCreateCoordinateTransformation(&wgs84, &utm_srs));
+  const std::unique_ptr<OGRCoordinateTransformation> back(OGRCreateCoordinateTransformation(&utm_srs, &wgs84));
+  REQUIRE(forward);
+  REQUIRE(back);
+  const Eigen::Vector2d centre_px(180.0, 180.0);
+  const Eigen::Vector2d lonlat = ref.transform().pixel_to_world(centre_px);
+  double e = lonlat.x(), n = lonlat.y();
+  REQUIRE(forward->Transform(1, &e, &n));
+  const Eigen::Vector3d moved =
+      report.epoch2_from_epoch1(Eigen::Vector3d(e, n, ref.height_at(lonlat.x(), lonlat.y())));
+  double lon = moved.x(), lat = moved.y();
+  REQUIRE(back->Transform(1, &lon, &lat));
+  const Eigen::Vector2d shift = ref.transform().world_to_pixel(Eigen::Vector2d(lon, lat)) - centre_px;
+  INFO("recovered shift " << shift.transpose() << " cells, oracle " << truth.transpose());
+  CHECK((shift - truth).norm() < 0.25);
 }
 
 TEST_CASE("rough_coregistration: recovers a fixed transform of a real DEM", "[pipeline]") {

@@ -36,6 +36,7 @@
 #include <diachron/matching/scale_hypotheses.hpp>
 #include <diachron/robust/chance_inliers.hpp>
 #include <diachron/robust/robust_estimation.hpp>
+#include <diachron/terrain/crs_kind.hpp>
 #include <diachron/terrain/dsm.hpp>
 #include <diachron/terrain/dsm_correlation_search.hpp>
 #include <diachron/terrain/dsm_image.hpp>
@@ -434,6 +435,16 @@ inline bool away_from_holes(const GeoImage& image, const Dsm& dsm, const Raster<
   return distance(x, y) >= min_distance;
 }
 
+// A geographic DSM has degrees horizontally and metres vertically: no 3D similarity relates two of
+// them, yet the fit would return numbers. Refused before any work, naming the remedy.
+inline void require_metric_frame(const Dsm& dsm, const char* which) {
+  DIACHRON_CHECK(crs_kind(dsm.crs()) != CrsKind::geographic,
+                 "rough co-registration: the " << which
+                     << " DSM is in a geographic CRS (degrees horizontally, heights in metres), and a 3D "
+                        "similarity needs one unit on all three axes; reproject it to a projected CRS first "
+                        "(reproject_dsm() of diachron/io/dsm_reproject.hpp, or gdalwarp -t_srs EPSG:326zz)");
+}
+
 /// rough_coregistration_images() with two more inputs, for the scale hypotheses: the DSMs whose
 /// holes mask the images (`*_hole_dsm`: the coarsened DSM an image was made from, so the hole rims
 /// are those the image shows) may differ from the DSMs that lift the matches (`*_dsm`: as given, the
@@ -450,6 +461,8 @@ RoughCoregistrationReport rough_coregistration_images_impl(const GeoImage& maste
   options.check();
   DIACHRON_CHECK(!master.image.empty() && !secondary.image.empty(), "rough co-registration needs two non-empty images");
   DIACHRON_CHECK(!master_dsm.empty() && !secondary_dsm.empty(), "rough co-registration needs two non-empty DSMs");
+  require_metric_frame(master_dsm, "master");
+  require_metric_frame(secondary_dsm, "secondary");
   DIACHRON_CHECK(searches >= 1.0, "searches must be >= 1, got " << searches);
   const auto start = std::chrono::steady_clock::now();
   RoughCoregistrationReport report;
@@ -692,6 +705,8 @@ RoughCoregistrationReport rough_coregistration(const Dsm& master, const Dsm& sec
                                                const RoughCoregistrationOptions& options) {
   options.check();
   DIACHRON_CHECK(!master.empty() && !secondary.empty(), "rough co-registration needs two non-empty DSMs");
+  detail::require_metric_frame(master, "master");
+  detail::require_metric_frame(secondary, "secondary");
   const auto start = std::chrono::steady_clock::now();
   if (master.statistics().count == 0 || secondary.statistics().count == 0) {
     RoughCoregistrationReport report;
