@@ -16,6 +16,8 @@
 #include <unistd.h>
 
 #include <catch2/catch.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #ifdef DIACHRON_HAVE_GDAL
 #include <diachron/io/epoch_folder.hpp>
@@ -323,6 +325,18 @@ TEST_CASE("read_epoch_folder reads what write_scene wrote, and names what is mis
     std::ofstream(cameras) << original;
   }
   CHECK_NOTHROW(read_epoch_folder(e1));
+  {
+    // A colour photo (the modern epoch's usual kind) is read as its grey: the image written again as
+    // RGB with three equal bands loads as the same pixels.
+    const EpochFolder folder = read_epoch_folder(e1);
+    const Raster<std::uint8_t> grey = folder.load_image(0);
+    const cv::Mat g(grey.height(), grey.width(), CV_8UC1, const_cast<std::uint8_t*>(grey.data()));
+    cv::Mat bgr;
+    cv::merge(std::vector<cv::Mat>{g, g, g}, bgr);
+    REQUIRE(cv::imwrite(folder.images[0].path, bgr));
+    const Raster<std::uint8_t> back = folder.load_image(0);
+    CHECK(std::equal(back.begin(), back.end(), grey.begin()));
+  }
 
   // The Helmert file of the programs reads back to the same doubles, and rejects what is not one.
   const Helmert3 h = scene.epoch2_from_epoch1();

@@ -22,6 +22,7 @@
 #include <diachron/core/raster.hpp>
 #include <diachron/io/colmap_text.hpp>
 #include <diachron/io/geotiff.hpp>
+#include <diachron/io/grey_image.hpp>
 #include <diachron/terrain/dsm.hpp>
 
 namespace diachron {
@@ -53,11 +54,11 @@ struct EpochFolder {
     return images.size();
   }
 
-  /// Reads image `i` (8-bit grey). Throws diachron::Error naming the file when it cannot be read or
-  /// its size is not its camera's.
+  /// Reads image `i` as 8-bit grey (RGB becomes luma, 16-bit scans are stretched: read_image_grey8).
+  /// Throws diachron::Error naming the file when it cannot be read or its size is not its camera's.
   Raster<std::uint8_t> load_image(std::size_t i) const {
     DIACHRON_CHECK(i < images.size(), "EpochFolder::load_image: image " << i << " of " << images.size());
-    Raster<std::uint8_t> image = read_image_u8(images[i].path);
+    Raster<std::uint8_t> image = read_image_grey8(images[i].path);
     const Camera<FraserAffine>& camera = images[i].frame.camera();
     DIACHRON_CHECK(image.width() == camera.width() && image.height() == camera.height(),
                    "image '" << images[i].path << "' is " << image.width() << " x " << image.height()

@@ -1,0 +1,116 @@
+#pragma once
+/// @file
+/// read_image_grey8(): any photo GDAL opens, as the 8-bit grey image the matchers take. Part of
+/// diachron::io: include it only from code that links GDAL.
+///
+/// Why: archive scans come as 8- or 16-bit grey TIFFs, the modern epoch's photos as RGB JPEGs, and
+/// read_image_u8() (io/geotiff.hpp) takes only 8-bit single-band files. Here:
+/// - bands: 1 (grey) or 2 (grey + alpha) use the first; 3 (RGB) or 4 (RGBA) become grey with the
+///   Rec. 601 luma weights 0.299 R + 0.587 G + 0.114 B (OpenCV's cvtColor and most photo tools), the
+///   alpha band ignored; a palette band is expanded through its colour table first;
+/// - samples: 8-bit as they are; wider or float samples are stretched linearly from a low to a high
+///   percentile of the image (0.1 % and 99.9 % by default) onto 0-255, because a 16-bit scan often
+///   fills only part of its range (a 12-bit scanner, a dark film) and dividing by 257 would leave it
+///   a few grey levels. Matching (SIFT, NCC) is invariant to such a gain and offset.
+/// No georeferencing is needed; non-finite float samples become 0.
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <gdal_priv.h>
+
+#include <diachron/core/error.hpp>
+#include <diachron/core/raster.hpp>
+#include <diachron/io/geotiff.hpp>
+
+namespace diachron {
+
+/// Options of read_image_grey8().
+struct GreyImageReadOptions {
+  /// Samples wider than 8 bits: the percentiles (in percent) mapped to 0 and 255. 0.1 and 99.9 by
+  /// default, so that a few saturated or dead pixels do not set the range.
+  double stretch_low_percent = 0.1;
+  double stretch_high_percent = 99.9;
+
+  void check() const {
+    DIACHRON_CHECK(stretch_low_percent >= 0.0 && stretch_high_percent <= 100.0 &&
+                       stretch_low_percent < stretch_high_percent,
+                   "GreyImageReadOptions: need 0 <= stretch_low_percent < stretch_high_percent <= 100, got "
+                       << stretch_low_percent << " and " << stretch_high_percent);
+  }
+};
+
+/// Reads the photo at `path` as 8-bit grey (see the file comment for bands and sample types).
+/// Throws diachron::Error naming the file when it is missing, cannot be opened, is empty, has 5 or
+/// more bands, complex samples, or cannot be read.
+inline Raster<std::uint8_t> read_image_grey8(const std::string& path, const GreyImageReadOptions& options = {}) {
+  options.check();
+  const detail::QuietGdalErrors quiet;
+  const detail::GdalDatasetPtr ds = detail::open_raster(path, "image");
+  const int bands = ds->GetRasterCount();
+  DIACHRON_CHECK(bands >= 1 && bands <= 4,
+                 "cannot read image '" << path << "': it has " << bands << " bands (grey, grey + alpha, RGB or RGBA expected)");
+  const int w = ds->GetRasterXSize(), h = ds->GetRasterYSize();
+  DIACHRON_CHECK(w > 0 && h > 0, "cannot read image '" << path << "': empty raster " << w << " x " << h);
+  const GDALDataType type = ds->GetRasterBand(1)->GetRasterDataType();
+  DIACHRON_CHECK(!GDALDataTypeIsComplex(type), "cannot read image '" << path << "': complex samples");
+  const std::size_t n = static_cast<std::size_t>(w) * static_cast<std::size_t>(h);
+
+  auto read_band = [&](int index) {
+    std::vector<double> values(n);
+    const CPLErr err = ds->GetRasterBand(index)->RasterIO(GF_Read, 0, 0, w, h, values.data(), w, h, GDT_Float64, 0,
+                                                          0, nullptr);
+    DIACHRON_CHECK(err == CE_None,
+                   "cannot read image '" << path << "': read failed" << detail::QuietGdalErrors::last_message());
+    for (double& v : values)
+      if (!std::isfinite(v)) v = 0.0;
+    return values;
+  };
+
+  std::vector<double> grey;
+  GDALRasterBand* first = ds->GetRasterBand(1);
+  const GDALColorTable* palette =
+      first->GetColorInterpretation() == GCI_PaletteIndex ? first->GetColorTable() : nullptr;
+  if (palette) {
+    // Each index through its colour (8-bit components), then luma.
+    std::vector<double> table(static_cast<std::size_t>(std::max(palette->GetColorEntryCount(), 1)), 0.0);
+    for (int i = 0; i < palette->GetColorEntryCount(); ++i) {
+      const GDALColorEntry* c = palette->GetColorEntry(i);
+      table[static_cast<std::size_t>(i)] = 0.299 * c->c1 + 0.587 * c->c2 + 0.114 * c->c3;
+    }
+    grey = read_band(1);
+    for (double& v : grey) {
+      const long i = std::lround(v);
+      v = (i >= 0 && static_cast<std::size_t>(i) < table.size()) ? table[static_cast<std::size_t>(i)] : 0.0;
+    }
+  } else if (bands >= 3) {
+    grey = read_band(1);
+    const std::vector<double> g = read_band(2), b = read_band(3);
+    for (std::size_t i = 0; i < n; ++i) grey[i] = 0.299 * grey[i] + 0.587 * g[i] + 0.114 * b[i];
+  } else {
+    grey = read_band(1);
+  }
+
+  Raster<std::uint8_t> out(w, h);
+  std::uint8_t* px = out.data();
+  if (type == GDT_Byte) {
+    for (std::size_t i = 0; i < n; ++i) px[i] = static_cast<std::uint8_t>(std::clamp(std::lround(grey[i]), 0L, 255L));
+    return out;
+  }
+  // Wider samples: the percentiles by selection on a copy (exact, O(n)).
+  std::vector<double> sorted = grey;
+  auto percentile = [&](double percent) {
+    const std::size_t k = std::min(n - 1, static_cast<std::size_t>(std::floor(percent / 100.0 * static_cast<double>(n - 1))));
+    std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(k), sorted.end());
+    return sorted[k];
+  };
+  const double lo = percentile(options.stretch_low_percent), hi = percentile(options.stretch_high_percent);
+  const double gain = hi > lo ? 255.0 / (hi - lo) : 0.0;  // a constant image stays one grey (0)
+  for (std::size_t i = 0; i < n; ++i)
+    px[i] = static_cast<std::uint8_t>(std::clamp(std::lround((grey[i] - lo) * gain), 0L, 255L));
+  return out;
+}
+
+}  // namespace diachron
