@@ -63,6 +63,8 @@ const char* kUsage =
     "                                         DSM + Helmert prediction (default), one-to-one transfer-\n"
     "                                         guided tiles, or keypoints guided by DSM + Helmert\n"
     "  --measure orientation|gradient|intensity  correlation's similarity (default orientation)\n"
+    "  --cell PX                              correlation: one master point per PX x PX cell (default 6;\n"
+    "                                         time per pair grows as 1 / PX^2: large scans want more)\n"
     "  --matcher sift|rootsift|akaze|xfeat    patch/guided features (default rootsift; guided:\n"
     "                                         sift|rootsift|xfeat)\n"
     "  --model PATH                           XFeat ONNX file (with --matcher xfeat)\n"
@@ -279,6 +281,7 @@ int main(int argc, char** argv) {
   OverlappingPairsOptions overlap_options;
   bool quiet = false, pictures = true, adjust = false, fallback = true;
   double min_overlap = 0.1;
+  int cell = 0;  // 0: the default cell
   std::size_t threads = 0;
 #if DIACHRON_MATCH_EPOCHS_ADJUST
   // Ceres logs through glog on stderr (e.g. a trust-region step it rejected); the adjustment's
@@ -296,6 +299,7 @@ int main(int argc, char** argv) {
       else if (a == "--method") method = value();
       else if (a == "--matcher") matcher_name = value();
       else if (a == "--measure") measure = value();
+      else if (a == "--cell") cell = std::stoi(value());
       else if (a == "--model") model_path = value();
       else if (a == "--min-overlap") min_overlap = std::stod(value());
       else if (a == "--fallback") {
@@ -334,6 +338,11 @@ int main(int argc, char** argv) {
     else if (measure == "orientation" || measure.empty()) options.correlation.match.measure = CorrelationMeasure::orientation;
     else DIACHRON_CHECK(false, "unknown --measure '" << measure << "' (orientation, gradient or intensity)");
     DIACHRON_CHECK(measure.empty() || method == "correlation", "--measure goes with --method correlation");
+    DIACHRON_CHECK(cell == 0 || method == "correlation", "--cell goes with --method correlation");
+    if (cell != 0) {
+      DIACHRON_CHECK(cell >= 2, "--cell wants a side of at least 2 px, got " << cell);
+      options.correlation.interest.cell_px = cell;
+    }
     DIACHRON_CHECK(matcher_name == "sift" || matcher_name == "rootsift" || matcher_name == "akaze" ||
                        matcher_name == "xfeat",
                    "unknown --matcher '" << matcher_name << "'");

@@ -68,6 +68,37 @@ TEST_CASE("grid interest points: the strongest pixel of each cell, by brute forc
   for (std::size_t k = 0; k < points.size(); ++k) CHECK(again[k].position == points[k].position);
 }
 
+TEST_CASE("grid interest points: odd cells, window and border, every cell against brute force",
+          "[grid_interest_points]") {
+  // Cells that do not divide the image, a border wider than the window's half: the row bands the
+  // sums are built in must give each cell's first strongest pixel, exactly (8-bit sums are exact).
+  const Raster<std::uint8_t> img = noise(73, 58, 11);
+  GridInterestOptions o;
+  o.cell_px = 7;
+  o.window_px = 9;
+  o.border_px = 6;
+  o.min_strength = 0.0;
+  const std::vector<InterestPoint> points = diachron::grid_interest_points(img, o);
+  std::vector<InterestPoint> expected;
+  for (int cy = 0; cy * 7 < 58; ++cy)
+    for (int cx = 0; cx * 7 < 73; ++cx) {
+      InterestPoint best;
+      best.strength = -1.0;
+      for (int y = std::max(6, cy * 7); y < std::min(58 - 6, cy * 7 + 7); ++y)
+        for (int x = std::max(6, cx * 7); x < std::min(73 - 6, cx * 7 + 7); ++x) {
+          const double s = brute_strength(img, x, y, 9);
+          if (s > best.strength + 1e-9) best.strength = s, best.position = Eigen::Vector2d(x, y);
+        }
+      if (best.strength >= 0.0) expected.push_back(best);
+    }
+  REQUIRE(points.size() == expected.size());
+  CHECK(points.size() == 10 * 8);  // the cells holding a pixel 6 px or more from the edges
+  for (std::size_t k = 0; k < points.size(); ++k) {
+    CHECK(points[k].position == expected[k].position);
+    CHECK(points[k].strength == Approx(expected[k].strength).epsilon(1e-12));
+  }
+}
+
 TEST_CASE("grid interest points: flat images and straight edges give none", "[grid_interest_points]") {
   const Raster<std::uint8_t> flat(64, 64, 90);
   CHECK(diachron::grid_interest_points(flat).empty());
