@@ -21,6 +21,7 @@
 // pipeline/overlapping_pairs.hpp and pipeline/precise_matching.hpp; docs/precise-matching.md says
 // how the defaults were chosen.
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -46,6 +47,8 @@
 #include <diachron/vision/extractor_pair_matcher.hpp>
 #include <diachron/vision/sift.hpp>
 #include <diachron/vision/xfeat.hpp>
+
+#include <opencv2/imgproc.hpp>
 #if DIACHRON_MATCH_EPOCHS_ADJUST
 #include <diachron/io/adjusted_export.hpp>
 #include <diachron/pipeline/combined_adjustment.hpp>
@@ -109,17 +112,42 @@ std::string safe(std::string name) {
 
 
 // The images of an epoch for the pictures, each read once however many pairs show it.
+// The pictures are drawn on copies of the images at most kPictureSidePx on their longer side:
+// full-resolution archive scans (12000 px and more) would make PNGs of hundreds of MB per pair and
+// keep gigabytes of images in this cache. Images up to that size are drawn as they are.
+constexpr int kPictureSidePx = 2000;
+
+struct Picture {
+  Raster<std::uint8_t> image;
+  Vec2 scale = Vec2::Ones();  // picture px per image px, per axis
+  /// An image pixel (centre convention) in the picture.
+  Vec2 at(const Vec2& p) const { return (p + Vec2::Constant(0.5)).cwiseProduct(scale) - Vec2::Constant(0.5); }
+};
+
 class PictureImages {
  public:
   explicit PictureImages(const EpochFolder& epoch) : epoch_(epoch), images_(epoch.images.size()) {}
-  const Raster<std::uint8_t>& operator[](std::size_t i) {
-    if (!images_.at(i)) images_[i] = epoch_.load_image(i);
+  const Picture& operator[](std::size_t i) {
+    if (!images_.at(i)) {
+      Picture p;
+      p.image = epoch_.load_image(i);
+      const int w = p.image.width(), h = p.image.height();
+      const double s = std::min(1.0, static_cast<double>(kPictureSidePx) / std::max(w, h));
+      if (s < 1.0) {
+        const int pw = std::max(1, static_cast<int>(std::lround(w * s))), ph = std::max(1, static_cast<int>(std::lround(h * s)));
+        cv::Mat small;
+        cv::resize(as_mat(p.image), small, cv::Size(pw, ph), 0.0, 0.0, cv::INTER_AREA);
+        p.image = to_raster<std::uint8_t>(small);
+        p.scale = Vec2(static_cast<double>(pw) / w, static_cast<double>(ph) / h);
+      }
+      images_[i] = std::move(p);
+    }
     return *images_[i];
   }
 
  private:
   const EpochFolder& epoch_;
-  std::vector<std::optional<Raster<std::uint8_t>>> images_;
+  std::vector<std::optional<Picture>> images_;
 };
 
 #if DIACHRON_MATCH_EPOCHS_ADJUST
@@ -219,7 +247,7 @@ void write_residual_pictures(const std::string& dir, const EpochFolder& e1, Pict
       if (o.image < 0 || static_cast<std::size_t>(o.image) >= n1) continue;
       const std::optional<Vec2> p = a.epoch1[static_cast<std::size_t>(o.image)].project(a.points[t]);
       if (!p) continue;
-      pixels[static_cast<std::size_t>(o.image)].push_back(o.pixel);
+      pixels[static_cast<std::size_t>(o.image)].push_back(images[static_cast<std::size_t>(o.image)].at(o.pixel));
       residuals[static_cast<std::size_t>(o.image)].push_back(o.pixel - *p);
     }
   }
@@ -227,7 +255,7 @@ void write_residual_pictures(const std::string& dir, const EpochFolder& e1, Pict
     std::string name = safe(e1.images[i].name);
     const std::size_t dot = name.find_last_of('.');
     if (dot != std::string::npos && dot > 0) name.erase(dot);  // "a.tif" -> "a.png"
-    write_residuals_png(dir + "/" + name + ".png", images[i], pixels[i], residuals[i]);
+    write_residuals_png(dir + "/" + name + ".png", images[i].image, pixels[i], residuals[i]);
   }
 }
 #endif
@@ -443,9 +471,16 @@ int main(int argc, char** argv) {
                   p.tentative.size(), p.grounded.size(), p.matches.size());
       if (p.matches.empty()) continue;
       write_homol(homol, a, b, p.matches);
-      if (pictures)
-        write_matches_png(out_dir + "/pairs/" + safe(a) + "--" + safe(b) + ".png", pictures1[p.master],
-                          pictures2[p.secondary], p.matches);
+      if (pictures) {
+        const Picture& pa = pictures1[p.master];
+        const Picture& pb = pictures2[p.secondary];
+        PointMatches drawn = p.matches;
+        for (PointMatch& m : drawn) {
+          m.a = pa.at(m.a);
+          m.b = pb.at(m.b);
+        }
+        write_matches_png(out_dir + "/pairs/" + safe(a) + "--" + safe(b) + ".png", pa.image, pb.image, drawn);
+      }
     }
     std::printf("%s (%.1f s)\n", precise.message.c_str(), precise.seconds_total);
     if (!precise.success) {

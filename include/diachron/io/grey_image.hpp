@@ -12,11 +12,13 @@
 ///   percentile of the image (0.1 % and 99.9 % by default) onto 0-255, because a 16-bit scan often
 ///   fills only part of its range (a 12-bit scanner, a dark film) and dividing by 257 would leave it
 ///   a few grey levels. Matching (SIFT, NCC) is invariant to such a gain and offset.
-/// No georeferencing is needed; non-finite float samples become 0.
+/// No georeferencing is needed; non-finite float samples become 0. Memory: the image plus 1 (grey)
+/// to 3 (RGB) bytes per pixel for 8-bit photos, 8 to 16 bytes per pixel for wider samples.
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include <gdal_priv.h>
@@ -58,53 +60,69 @@ inline Raster<std::uint8_t> read_image_grey8(const std::string& path, const Grey
   DIACHRON_CHECK(!GDALDataTypeIsComplex(type), "cannot read image '" << path << "': complex samples");
   const std::size_t n = static_cast<std::size_t>(w) * static_cast<std::size_t>(h);
 
-  auto read_band = [&](int index) {
-    std::vector<double> values(n);
-    const CPLErr err = ds->GetRasterBand(index)->RasterIO(GF_Read, 0, 0, w, h, values.data(), w, h, GDT_Float64, 0,
-                                                          0, nullptr);
-    DIACHRON_CHECK(err == CE_None,
-                   "cannot read image '" << path << "': read failed" << detail::QuietGdalErrors::last_message());
-    for (double& v : values)
-      if (!std::isfinite(v)) v = 0.0;
-    return values;
-  };
-
-  std::vector<double> grey;
   GDALRasterBand* first = ds->GetRasterBand(1);
   const GDALColorTable* palette =
       first->GetColorInterpretation() == GCI_PaletteIndex ? first->GetColorTable() : nullptr;
+  Raster<std::uint8_t> out(w, h);
+  std::uint8_t* px = out.data();
+  // Reads band `index` as samples of type V (GDAL converts), `n` of them.
+  auto read_band = [&](int index, auto tag) {
+    using V = decltype(tag);
+    std::vector<V> values(n);
+    const GDALDataType as = std::is_same_v<V, std::uint8_t> ? GDT_Byte : GDT_Float32;
+    const CPLErr err = ds->GetRasterBand(index)->RasterIO(GF_Read, 0, 0, w, h, values.data(), w, h, as, 0, 0, nullptr);
+    DIACHRON_CHECK(err == CE_None,
+                   "cannot read image '" << path << "': read failed" << detail::QuietGdalErrors::last_message());
+    return values;
+  };
+  auto luma = [](double r, double g, double b) { return 0.299 * r + 0.587 * g + 0.114 * b; };
+
+  // 8-bit photos, the common case, at 1 to 3 bytes per pixel of memory.
+  if (type == GDT_Byte && !palette) {
+    if (bands <= 2) {
+      const CPLErr err = first->RasterIO(GF_Read, 0, 0, w, h, px, w, h, GDT_Byte, 0, 0, nullptr);
+      DIACHRON_CHECK(err == CE_None,
+                     "cannot read image '" << path << "': read failed" << detail::QuietGdalErrors::last_message());
+    } else {
+      const std::vector<std::uint8_t> r = read_band(1, std::uint8_t{}), g = read_band(2, std::uint8_t{}),
+                                      b = read_band(3, std::uint8_t{});
+      for (std::size_t i = 0; i < n; ++i) px[i] = static_cast<std::uint8_t>(std::lround(luma(r[i], g[i], b[i])));
+    }
+    return out;
+  }
+
+  // Palette images through their colours (8-bit components), then luma.
   if (palette) {
-    // Each index through its colour (8-bit components), then luma.
     std::vector<double> table(static_cast<std::size_t>(std::max(palette->GetColorEntryCount(), 1)), 0.0);
     for (int i = 0; i < palette->GetColorEntryCount(); ++i) {
       const GDALColorEntry* c = palette->GetColorEntry(i);
-      table[static_cast<std::size_t>(i)] = 0.299 * c->c1 + 0.587 * c->c2 + 0.114 * c->c3;
+      table[static_cast<std::size_t>(i)] = luma(c->c1, c->c2, c->c3);
     }
-    grey = read_band(1);
-    for (double& v : grey) {
-      const long i = std::lround(v);
-      v = (i >= 0 && static_cast<std::size_t>(i) < table.size()) ? table[static_cast<std::size_t>(i)] : 0.0;
+    const std::vector<float> index = read_band(1, float{});
+    for (std::size_t i = 0; i < n; ++i) {
+      const long k = std::isfinite(index[i]) ? std::lround(index[i]) : -1;
+      px[i] = (k >= 0 && static_cast<std::size_t>(k) < table.size())
+                  ? static_cast<std::uint8_t>(std::lround(table[static_cast<std::size_t>(k)]))
+                  : 0;
     }
-  } else if (bands >= 3) {
-    grey = read_band(1);
-    const std::vector<double> g = read_band(2), b = read_band(3);
-    for (std::size_t i = 0; i < n; ++i) grey[i] = 0.299 * grey[i] + 0.587 * g[i] + 0.114 * b[i];
-  } else {
-    grey = read_band(1);
-  }
-
-  Raster<std::uint8_t> out(w, h);
-  std::uint8_t* px = out.data();
-  if (type == GDT_Byte) {
-    for (std::size_t i = 0; i < n; ++i) px[i] = static_cast<std::uint8_t>(std::clamp(std::lround(grey[i]), 0L, 255L));
     return out;
   }
-  // Wider samples: the percentiles by selection on a copy (exact, O(n)).
-  std::vector<double> sorted = grey;
+
+  // Wider or float samples: grey (luma for RGB) as float, then the linear stretch between the
+  // percentiles, found by selection on a copy (exact).
+  std::vector<float> grey = read_band(1, float{});
+  if (bands >= 3) {
+    const std::vector<float> g = read_band(2, float{}), b = read_band(3, float{});
+    for (std::size_t i = 0; i < n; ++i) grey[i] = static_cast<float>(luma(grey[i], g[i], b[i]));
+  }
+  for (float& v : grey)
+    if (!std::isfinite(v)) v = 0.0f;
+  std::vector<float> sorted = grey;
   auto percentile = [&](double percent) {
-    const std::size_t k = std::min(n - 1, static_cast<std::size_t>(std::floor(percent / 100.0 * static_cast<double>(n - 1))));
+    const std::size_t k =
+        std::min(n - 1, static_cast<std::size_t>(std::floor(percent / 100.0 * static_cast<double>(n - 1))));
     std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(k), sorted.end());
-    return sorted[k];
+    return static_cast<double>(sorted[k]);
   };
   const double lo = percentile(options.stretch_low_percent), hi = percentile(options.stretch_high_percent);
   const double gain = hi > lo ? 255.0 / (hi - lo) : 0.0;  // a constant image stays one grey (0)
