@@ -7,7 +7,8 @@
 // dsm.tif in the model's frame (what make_scene writes). Epoch 1 is the master (moved onto epoch 2).
 // Writes
 //   DIR/rough_helmert.json  the rough co-registration, X2 = scale R X1 + translation (helmert.json's keys)
-//   DIR/Homol/              final inter-epoch tie points, MicMac Homol (both directions; names as in images.txt)
+//   DIR/Homol/              final inter-epoch tie points, MicMac Homol (both directions; names as in images.txt,
+//                           unless a name has a folder or both epochs use it: then DIR/homol_names.txt)
 //   DIR/report.json         counts per stage and per pair, timings
 //   DIR/pairs/<a>--<b>.png  each pair's final matches
 // and with --adjust (the combined adjustment, pipeline/combined_adjustment.hpp: epoch 2 fixed,
@@ -30,6 +31,7 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <set>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -110,6 +112,54 @@ std::string safe(std::string name) {
   return name;
 }
 
+
+// The names of the images in Homol/. MicMac names tie-point files after the images, without
+// folders, and one name must mean one image. The names of images.txt are kept when they allow that;
+// when a name has a folder ("1954/0001.tif", as COLMAP allows) or both epochs use the same name
+// (both numbered from 0001), every name becomes "e1_" or "e2_" + the name with '/' turned into '_',
+// and DIR/homol_names.txt says which is which. Decided before any work, so that a clash stops the
+// run at once instead of after the matching.
+struct HomolNames {
+  std::vector<std::string> e1, e2;
+  bool renamed = false;
+};
+
+HomolNames homol_names(const EpochFolder& e1, const EpochFolder& e2) {
+  HomolNames out;
+  std::set<std::string> seen;
+  bool plain = true;
+  for (const EpochFolder* e : {&e1, &e2})
+    for (const EpochImage& image : e->images)
+      plain = plain && image.name.find('/') == std::string::npos && seen.insert(image.name).second;
+  out.renamed = !plain;
+  seen.clear();
+  for (int k = 0; k < 2; ++k) {
+    const EpochFolder& e = k == 0 ? e1 : e2;
+    std::vector<std::string>& names = k == 0 ? out.e1 : out.e2;
+    for (const EpochImage& image : e.images) {
+      std::string name = image.name;
+      if (out.renamed) {
+        for (char& c : name)
+          if (c == '/') c = '_';
+        name = (k == 0 ? "e1_" : "e2_") + name;
+      }
+      DIACHRON_CHECK(seen.insert(name).second, "two images of epoch " << k + 1 << " would share the Homol name '"
+                                                                       << name << "' (one is '" << image.name
+                                                                       << "'): rename one of them");
+      names.push_back(name);
+    }
+  }
+  return out;
+}
+
+void write_homol_names(const std::string& path, const EpochFolder& e1, const EpochFolder& e2, const HomolNames& n) {
+  std::ofstream out(path);
+  DIACHRON_CHECK(out.good(), "cannot write " << path);
+  out << "# epoch, image name in images.txt, its name in Homol/\n";
+  for (std::size_t i = 0; i < e1.images.size(); ++i) out << "1 " << e1.images[i].name << ' ' << n.e1[i] << '\n';
+  for (std::size_t i = 0; i < e2.images.size(); ++i) out << "2 " << e2.images[i].name << ' ' << n.e2[i] << '\n';
+  DIACHRON_CHECK(out.good(), "cannot write " << path);
+}
 
 // The images of an epoch for the pictures, each read once however many pairs show it.
 // The pictures are drawn on copies of the images at most kPictureSidePx on their longer side:
@@ -309,7 +359,7 @@ int main(int argc, char** argv) {
   OverlappingPairsOptions overlap_options;
   bool quiet = false, pictures = true, adjust = false, fallback = true;
   double min_overlap = 0.1;
-  int cell = 0;  // 0: the default cell
+  std::optional<int> cell;  // unset: the default cell
   std::size_t threads = 0;
 #if DIACHRON_MATCH_EPOCHS_ADJUST
   // Ceres logs through glog on stderr (e.g. a trust-region step it rejected); the adjustment's
@@ -366,10 +416,10 @@ int main(int argc, char** argv) {
     else if (measure == "orientation" || measure.empty()) options.correlation.match.measure = CorrelationMeasure::orientation;
     else DIACHRON_CHECK(false, "unknown --measure '" << measure << "' (orientation, gradient or intensity)");
     DIACHRON_CHECK(measure.empty() || method == "correlation", "--measure goes with --method correlation");
-    DIACHRON_CHECK(cell == 0 || method == "correlation", "--cell goes with --method correlation");
-    if (cell != 0) {
-      DIACHRON_CHECK(cell >= 2, "--cell wants a side of at least 2 px, got " << cell);
-      options.correlation.interest.cell_px = cell;
+    DIACHRON_CHECK(!cell || method == "correlation", "--cell goes with --method correlation");
+    if (cell) {
+      DIACHRON_CHECK(*cell >= 2, "--cell wants a side of at least 2 px, got " << *cell);
+      options.correlation.interest.cell_px = *cell;
     }
     DIACHRON_CHECK(matcher_name == "sift" || matcher_name == "rootsift" || matcher_name == "akaze" ||
                        matcher_name == "xfeat",
@@ -392,7 +442,11 @@ int main(int argc, char** argv) {
 
     const EpochFolder e1 = read_epoch_folder(dir1);
     const EpochFolder e2 = read_epoch_folder(dir2);
+    const HomolNames names = homol_names(e1, e2);
     make_folder(out_dir, "match_epochs");
+    if (names.renamed && !quiet)
+      std::fprintf(stderr, "image names with a folder or shared by both epochs: Homol/ uses e1_/e2_ names "
+                           "(DIR/homol_names.txt)\n");
     if (!quiet)
       std::fprintf(stderr, "epoch 1: %zu images, DSM %d x %d; epoch 2: %zu images, DSM %d x %d\n", e1.images.size(),
                    e1.dsm.width(), e1.dsm.height(), e2.images.size(), e2.dsm.width(), e2.dsm.height());
@@ -462,6 +516,7 @@ int main(int argc, char** argv) {
     write_report(out_dir + "/report.json", e1, e2, rough, overlap, precise, method, matcher_name);
     const std::string homol = out_dir + "/Homol";
     make_folder(homol, "match_epochs");
+    if (names.renamed) write_homol_names(out_dir + "/homol_names.txt", e1, e2, names);
     if (pictures) make_folder(out_dir + "/pairs", "match_epochs");
     PictureImages pictures1(e1), pictures2(e2);
     for (const PrecisePairReport& p : precise.pairs) {
@@ -470,7 +525,7 @@ int main(int argc, char** argv) {
       std::printf("%s -- %s: %zu tentative, %zu after the ground filter, %zu final\n", a.c_str(), b.c_str(),
                   p.tentative.size(), p.grounded.size(), p.matches.size());
       if (p.matches.empty()) continue;
-      write_homol(homol, a, b, p.matches);
+      write_homol(homol, names.e1[p.master], names.e2[p.secondary], p.matches);
       if (pictures) {
         const Picture& pa = pictures1[p.master];
         const Picture& pb = pictures2[p.secondary];

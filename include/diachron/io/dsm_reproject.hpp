@@ -42,7 +42,7 @@ struct DsmReprojectOptions {
 
   void check() const {
     DIACHRON_CHECK(cell_size >= 0.0 && std::isfinite(cell_size),
-                   "DsmReprojectOptions::cell_size must be >= 0 (0 = GDAL's choice), got " << cell_size);
+                   "DsmReprojectOptions::cell_size must be >= 0 (0 = the input's finer cell side), got " << cell_size);
     DIACHRON_CHECK(resampling == "bilinear" || resampling == "near" || resampling == "cubic",
                    "DsmReprojectOptions::resampling must be bilinear, near or cubic, got '" << resampling << "'");
   }
@@ -127,9 +127,9 @@ inline Dsm reproject_dsm(const Dsm& dsm, const std::string& target_crs, const Ds
                                                                                << detail::QuietGdalErrors::last_message());
     const Eigen::Vector2d c(0.5 * (dsm.width() - 1), 0.5 * (dsm.height() - 1));
     double x[3], y[3];
-    const Eigen::Vector2d corners[3] = {c, c + Eigen::Vector2d(1.0, 0.0), c + Eigen::Vector2d(0.0, 1.0)};
+    const Eigen::Vector2d probes[3] = {c, c + Eigen::Vector2d(1.0, 0.0), c + Eigen::Vector2d(0.0, 1.0)};
     for (int i = 0; i < 3; ++i) {
-      const Eigen::Vector2d w = gt.pixel_to_world(corners[i]);
+      const Eigen::Vector2d w = gt.pixel_to_world(probes[i]);
       x[i] = w.x();
       y[i] = w.y();
     }

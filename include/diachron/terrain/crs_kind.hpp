@@ -51,8 +51,8 @@ inline std::string wkt_keyword(const std::string& wkt, std::size_t& pos) {
   return word;
 }
 
-// Position just after the first '[' or '(' at or after `pos` that opens the first sub-node, with
-// quoted names skipped; npos when there is none.
+// Position of the bracket ('[' or '(') that opens the first sub-node of the node whose keyword
+// ends at `pos`, quoted names skipped; npos when there is none.
 inline std::size_t wkt_first_child(const std::string& wkt, std::size_t pos) {
   bool quoted = false;
   int depth = 0;
@@ -61,7 +61,7 @@ inline std::size_t wkt_first_child(const std::string& wkt, std::size_t pos) {
     if (c == '"') quoted = !quoted;
     if (quoted) continue;
     if (c == '[' || c == '(') {
-      if (depth == 1) return pos;  // the child's opening bracket: back up to its keyword below
+      if (depth == 1) return pos;  // the child's bracket; its keyword is just before it
       ++depth;
     } else if (c == ']' || c == ')') {
       if (--depth <= 0) return std::string::npos;
