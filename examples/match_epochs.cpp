@@ -76,6 +76,8 @@ const char* kUsage =
     "  --fallback on|off                      dense correlation search of the DSMs when the features\n"
     "                                         find no co-registration (default on; its answers are\n"
     "                                         graded low trust; off makes failures fast)\n"
+    "  --nodata V                             also treat DSM heights equal to V as holes (a dsm.tif\n"
+    "                                         without a nodata tag, e.g. -9999)\n"
     "  --min-overlap F                        least overlap of a pair, share of the smaller footprint\n"
     "                                         (default 0.1)\n"
     "  --ncc-threshold T                      least NCC of a kept match (default 0.6, MicMac's; the\n"
@@ -360,6 +362,7 @@ int main(int argc, char** argv) {
   bool quiet = false, pictures = true, adjust = false, fallback = true;
   double min_overlap = 0.1;
   std::optional<int> cell;  // unset: the default cell
+  GeoTiffReadOptions dsm_read;
   std::size_t threads = 0;
 #if DIACHRON_MATCH_EPOCHS_ADJUST
   // Ceres logs through glog on stderr (e.g. a trust-region step it rejected); the adjustment's
@@ -380,6 +383,10 @@ int main(int argc, char** argv) {
       else if (a == "--cell") cell = std::stoi(value());
       else if (a == "--model") model_path = value();
       else if (a == "--min-overlap") min_overlap = std::stod(value());
+      else if (a == "--nodata") {
+        dsm_read.assume_untagged_nodata = true;
+        dsm_read.untagged_nodata = std::stod(value());
+      }
       else if (a == "--fallback") {
         const std::string f = value();
         DIACHRON_CHECK(f == "on" || f == "off", "--fallback wants on or off, got '" << f << "'");
@@ -440,8 +447,12 @@ int main(int argc, char** argv) {
       };
     options.progress = progress;
 
-    const EpochFolder e1 = read_epoch_folder(dir1);
-    const EpochFolder e2 = read_epoch_folder(dir2);
+    const EpochFolder e1 = read_epoch_folder(dir1, dsm_read);
+    const EpochFolder e2 = read_epoch_folder(dir2, dsm_read);
+    for (const EpochFolder* e : {&e1, &e2})
+      if (const std::optional<double> v = suspected_untagged_nodata(e->dsm); v && !dsm_read.assume_untagged_nodata)
+        std::fprintf(stderr, "warning: '%s/dsm.tif' has heights of %g far below all others and no nodata tag for "
+                             "them: if they are holes, pass --nodata %g\n", e->directory.c_str(), *v, *v);
     const HomolNames names = homol_names(e1, e2);
     make_folder(out_dir, "match_epochs");
     if (names.renamed && !quiet)

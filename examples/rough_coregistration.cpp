@@ -18,6 +18,7 @@
 #include <fstream>
 #include <iostream>
 #include <memory>
+#include <optional>
 #include <string>
 #include <utility>
 
@@ -52,6 +53,8 @@ const char* kUsage =
     "  --fallback off|heights|gradient       dense correlation search when the features find nothing\n"
     "                                        (small coarse DSMs against fine ones; default gradient,\n"
     "                                        the measured best; heights the earlier search)\n"
+    "  --nodata V                            also treat heights equal to V as holes (DSMs without a\n"
+    "                                        nodata tag, e.g. -9999)\n"
     "  --reproject utm|CRS                   warp both DSMs to this CRS first (utm: the WGS 84 UTM\n"
     "                                        zone of the master's centre); needed for geographic DSMs\n"
     "  --threshold PX                        2D RANSAC threshold, DSM pixels (default 10)\n"
@@ -127,6 +130,7 @@ DsmImageKind parse_image(const std::string& s) {
 
 int main(int argc, char** argv) {
   std::string master_path, secondary_path, out_dir, matcher_name = "sift", model_path, reproject;
+  GeoTiffReadOptions read_options;
   RoughCoregistrationOptions options;
   bool quiet = false;
   try {
@@ -168,6 +172,10 @@ int main(int argc, char** argv) {
         }
       }
       else if (a == "--reproject") reproject = value();
+      else if (a == "--nodata") {
+        read_options.assume_untagged_nodata = true;
+        read_options.untagged_nodata = std::stod(value());
+      }
       else if (a == "--threshold") options.ransac_2d.threshold = std::stod(value());
       else if (a == "--threads") options.threads = std::stoul(value());
       else if (a == "--seed") options.ransac_2d.seed = std::stoull(value());
@@ -192,8 +200,12 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "\r%s: %zu/%zu ", e.stage.c_str(), e.done, e.total);
         if (e.done == e.total) std::fprintf(stderr, "\n");
       };
-    Dsm master = read_geotiff_dsm(master_path);
-    Dsm secondary = read_geotiff_dsm(secondary_path);
+    Dsm master = read_geotiff_dsm(master_path, read_options);
+    Dsm secondary = read_geotiff_dsm(secondary_path, read_options);
+    for (const auto& [dsm, path] : {std::pair<const Dsm*, std::string>{&master, master_path}, {&secondary, secondary_path}})
+      if (const std::optional<double> v = suspected_untagged_nodata(*dsm); v && !read_options.assume_untagged_nodata)
+        std::fprintf(stderr, "warning: '%s' has heights of %g far below all others and no nodata tag for them: "
+                             "if they are holes, pass --nodata %g\n", path.c_str(), *v, *v);
     // "frame": what the Helmert's coordinates are, for the reader of report.json.
     std::string frame = "the DSMs' own CRSs";
     if (!reproject.empty()) {

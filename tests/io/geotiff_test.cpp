@@ -7,6 +7,7 @@
 #include <fstream>
 #include <limits>
 #include <string>
+#include <vector>
 
 #include <catch2/catch.hpp>
 #include <gdal_priv.h>
@@ -248,4 +249,24 @@ TEST_CASE("GeoTiff: real DEMs", "[io]") {
     CHECK_THAT(dsm.crs(), Catch::Contains("4326") || Catch::Contains("WGS 84"));
     CHECK(dsm.cell_size().x() == Approx(1.0 / 1200.0).epsilon(1e-3));
   }
+}
+
+TEST_CASE("suspected_untagged_nodata: a sentinel far below every height, and nothing else", "[io]") {
+  const GeoTransform gt = GeoTransform::north_up(0.0, 100.0, 1.0);
+  auto dsm_of = [&](std::vector<float> values) {
+    Raster<float> z(static_cast<int>(values.size()), 1);
+    for (std::size_t i = 0; i < values.size(); ++i) z(static_cast<int>(i), 0) = values[i];
+    return Dsm(std::move(z), gt);
+  };
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  CHECK(diachron::suspected_untagged_nodata(dsm_of({120.0f, -9999.0f, 87.5f, -9999.0f, nan})) == -9999.0);
+  CHECK(diachron::suspected_untagged_nodata(dsm_of({-32768.0f, 2.0f, -5.0f})) == -32768.0);
+  CHECK(diachron::suspected_untagged_nodata(dsm_of({-std::numeric_limits<float>::max(), 10.0f})) ==
+        static_cast<double>(-std::numeric_limits<float>::max()));
+  CHECK(diachron::suspected_untagged_nodata(dsm_of({-9999.0f, -9999.0f})) == -9999.0);  // nothing but holes
+  // Real heights: no sentinel, or a sentinel value that continues the terrain (deep bathymetry).
+  CHECK_FALSE(diachron::suspected_untagged_nodata(dsm_of({120.0f, 87.5f, -3.0f})));
+  CHECK_FALSE(diachron::suspected_untagged_nodata(dsm_of({-9999.0f, -9500.0f, -8200.0f})));
+  CHECK_FALSE(diachron::suspected_untagged_nodata(dsm_of({-9998.0f, 15.0f})));
+  CHECK_FALSE(diachron::suspected_untagged_nodata(dsm_of({nan, nan})));
 }

@@ -72,7 +72,7 @@ struct EpochFolder {
 /// checks that every image of images.txt exists under `images/`. Throws diachron::Error naming the
 /// file (and line) when the folder, a file or an image is missing, a file cannot be parsed, a
 /// camera model has no diachron counterpart, or the DSM has no valid cell.
-inline EpochFolder read_epoch_folder(const std::string& directory) {
+inline EpochFolder read_epoch_folder(const std::string& directory, const GeoTiffReadOptions& dsm_options = {}) {
   struct stat info {};
   DIACHRON_CHECK(!directory.empty() && ::stat(directory.c_str(), &info) == 0 && S_ISDIR(info.st_mode),
                  "epoch folder '" << directory << "' does not exist or is not a folder");
@@ -80,7 +80,7 @@ inline EpochFolder read_epoch_folder(const std::string& directory) {
   out.directory = directory;
   out.model = read_colmap_text(directory);
   DIACHRON_CHECK(!out.model.images.empty(), "epoch folder '" << directory << "': images.txt lists no image");
-  out.dsm = read_geotiff_dsm(directory + "/dsm.tif");
+  out.dsm = read_geotiff_dsm(directory + "/dsm.tif", dsm_options);
   DIACHRON_CHECK(out.dsm.statistics().count > 0, "epoch folder '" << directory << "': dsm.tif has no valid cell");
   for (const auto& [id, colmap_image] : out.model.images) {
     EpochImage image;

@@ -11,6 +11,7 @@
 #include <limits>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -209,6 +210,31 @@ inline Dsm read_geotiff_dsm(const std::string& path, const GeoTiffReadOptions& o
     CPLFree(wkt);
   }
   return Dsm(std::move(heights), gt, std::move(crs));
+}
+
+/// A hole value a DSM seems to hold as heights: its lowest height is one of the usual sentinels
+/// (-9999, -99999, -32767, -32768, or the lowest float) and lies more than 1000 units below every
+/// other height. Such a file had no nodata tag (or another one), and reading it with
+/// GeoTiffReadOptions::assume_untagged_nodata and that value makes those cells holes; as heights
+/// they are cliffs that a DSM image and every match would take for terrain. Programs warn with it;
+/// nothing is changed here. nullopt when the DSM shows no such value.
+inline std::optional<double> suspected_untagged_nodata(const Dsm& dsm) {
+  float lowest = std::numeric_limits<float>::infinity(), second = std::numeric_limits<float>::infinity();
+  for (const float v : dsm.heights()) {
+    if (std::isnan(v) || v == lowest) continue;
+    if (v < lowest) {
+      second = lowest;
+      lowest = v;
+    } else if (v < second) {
+      second = v;
+    }
+  }
+  if (std::isinf(lowest)) return std::nullopt;  // no valid cell (a Dsm holds no infinities)
+  for (const double sentinel : {-9999.0, -99999.0, -32767.0, -32768.0, static_cast<double>(-std::numeric_limits<float>::max())})
+    if (static_cast<double>(lowest) == static_cast<double>(static_cast<float>(sentinel)) &&
+        (!std::isfinite(second) || static_cast<double>(second) - sentinel > 1000.0))
+      return sentinel;
+  return std::nullopt;
 }
 
 /// Writes `dsm` as a single-band float32 GeoTIFF: holes as `nodata` (declared in the file), the
