@@ -24,8 +24,10 @@
 #include <utility>
 #include <vector>
 
+#include <diachron/io/dsm_reproject.hpp>
 #include <diachron/io/geotiff.hpp>
 #include <diachron/synth/scene.hpp>
+#include <diachron/terrain/crs_kind.hpp>
 #include <diachron/synth/scene_io.hpp>
 
 namespace {
@@ -35,7 +37,8 @@ constexpr const char* kUsage =
     "  --preset NAME            plain (default: the small test scene) or decades (SceneOptions::decades_apart();\n"
     "                           the options below apply on top of it)\n"
     "  --seed N                 random seed (default 0)\n"
-    "  --dem PATH               real DEM (GeoTIFF) as terrain instead of procedural relief\n"
+    "  --dem PATH               real DEM (GeoTIFF) as terrain instead of procedural relief (one in\n"
+    "                           degrees is first reprojected to its UTM zone)\n"
     "  --images-per-epoch RxC   flight lines x images per line of every epoch (plain default 2x3)\n"
     "  --image-size WxH         image size in pixels (plain default 400x300; focal length scales with W)\n"
     "  --epochs N               number of epochs, oldest first (plain only; default 2)\n"
@@ -201,6 +204,13 @@ int main(int argc, char** argv) {
       diachron::GeoTiffReadOptions read;
       read.assume_untagged_nodata = true;
       options.real_dem = diachron::read_geotiff_dsm(*args.dem, read);
+      // Cells in degrees under heights in metres would make a flat, stretched world: the terrain
+      // goes to metres first.
+      if (diachron::crs_kind(options.real_dem->crs()) == diachron::CrsKind::geographic) {
+        const std::string utm = diachron::utm_crs_of(*options.real_dem);
+        std::fprintf(stderr, "make_scene: %s is in degrees; reprojected to %s\n", args.dem->c_str(), utm.c_str());
+        options.real_dem = diachron::reproject_dsm(*options.real_dem, utm);
+      }
     }
 
     const auto t0 = std::chrono::steady_clock::now();
