@@ -2,7 +2,8 @@
 # first two images renamed to epoch 1's names (both epochs numbered alike), the other two moved into
 # a folder (images/scan/..., a COLMAP name with a '/'). The program must finish (exit 0), write every
 # tie point under the documented e1_ / e2_ names, and list the names in homol_names.txt; the inputs
-# (renamed here, before the run) stay as they were.
+# (renamed here, before the run) stay as they were. A sparse point grid (--cell 16) keeps it short:
+# the names are the point, not the number of matches.
 #   cmake -DMAKE_SCENE=... -DMATCH_EPOCHS=... -DWORK=... -P match_epochs_names.cmake
 include("${CMAKE_CURRENT_LIST_DIR}/scene_folders.cmake")
 fresh_scene("${WORK}" --image-size 800x600 --images-per-epoch 2x2 --seed 1)
@@ -19,7 +20,7 @@ foreach(pair "e2_r0_c0.png=e1_r0_c0.png" "e2_r0_c1.png=e1_r0_c1.png" "e2_r1_c0.p
 endforeach()
 file(WRITE "${e2}/images.txt" "${images}")
 folder_fingerprint("${WORK}/scene" before)
-execute_process(COMMAND "${MATCH_EPOCHS}" "${WORK}/scene/e1" "${e2}" --out "${WORK}/out" --no-pictures
+execute_process(COMMAND "${MATCH_EPOCHS}" "${WORK}/scene/e1" "${e2}" --out "${WORK}/out" --no-pictures --cell 16
                 RESULT_VARIABLE status OUTPUT_VARIABLE out ERROR_VARIABLE err)
 if(NOT status EQUAL 0)
   message(FATAL_ERROR "match_epochs exited with ${status}, expected 0\n${out}\n${err}")
