@@ -282,7 +282,6 @@ struct MedianPair {
   std::string cell() const { return fmt(median(first)) + " / " + fmt(median(second)); }
 };
 
-// The whole run; main() turns what it throws (a bad argument, a failed scene) into one line and exit 1.
 // "peak weighted": each match's secondary pixel weighted by its correlation peak's shape
 // (peak_shape.hpp). Along each principal direction of the peak's curvature the information is
 // (curvature / the seed's median curvature)^0.5, clamped to [1/4, 4]: on the final matches of
@@ -337,6 +336,7 @@ std::vector<EpochPairMatches> peak_weighted(const std::vector<EpochPairMatches>&
   return out;
 }
 
+// The whole run; main() turns what it throws (a bad argument, a failed scene) into one line and exit 1.
 int run(int argc, char** argv) {
   int seeds = 5;
   std::uint64_t first_seed = 0;

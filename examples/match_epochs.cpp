@@ -163,7 +163,6 @@ void write_homol_names(const std::string& path, const EpochFolder& e1, const Epo
   DIACHRON_CHECK(out.good(), "cannot write " << path);
 }
 
-// The images of an epoch for the pictures, each read once however many pairs show it.
 // The pictures are drawn on copies of the images at most kPictureSidePx on their longer side:
 // full-resolution archive scans (12000 px and more) would make PNGs of hundreds of MB per pair and
 // keep gigabytes of images in this cache. Images up to that size are drawn as they are.
@@ -176,6 +175,7 @@ struct Picture {
   Vec2 at(const Vec2& p) const { return (p + Vec2::Constant(0.5)).cwiseProduct(scale) - Vec2::Constant(0.5); }
 };
 
+// The images of an epoch for the pictures, each read (and shrunk) once however many pairs show it.
 class PictureImages {
  public:
   explicit PictureImages(const EpochFolder& epoch) : epoch_(epoch), images_(epoch.images.size()) {}

@@ -461,8 +461,6 @@ RoughCoregistrationReport rough_coregistration_images_impl(const GeoImage& maste
   options.check();
   DIACHRON_CHECK(!master.image.empty() && !secondary.image.empty(), "rough co-registration needs two non-empty images");
   DIACHRON_CHECK(!master_dsm.empty() && !secondary_dsm.empty(), "rough co-registration needs two non-empty DSMs");
-  require_metric_frame(master_dsm, "master");
-  require_metric_frame(secondary_dsm, "secondary");
   DIACHRON_CHECK(searches >= 1.0, "searches must be >= 1, got " << searches);
   const auto start = std::chrono::steady_clock::now();
   RoughCoregistrationReport report;
@@ -696,6 +694,9 @@ RoughCoregistrationReport rough_coregistration_images(const GeoImage& master, co
                                                       const GeoImage& secondary, const Dsm& secondary_dsm,
                                                       const Matcher& matcher,
                                                       const RoughCoregistrationOptions& options) {
+  // Checked here and in rough_coregistration(), not in the impl that runs once per scale hypothesis.
+  detail::require_metric_frame(master_dsm, "master");
+  detail::require_metric_frame(secondary_dsm, "secondary");
   return detail::rough_coregistration_images_impl(master, master_dsm, master_dsm, secondary, secondary_dsm,
                                                   secondary_dsm, matcher, options, 1.0);
 }

@@ -102,7 +102,8 @@ Raster<T> to_raster(const cv::Mat& mat) {
 
 /// Loads an image file as 8-bit grayscale (any format OpenCV's imgcodecs reads: PNG, TIFF, JPEG,
 /// ...). Colour images are converted to gray with OpenCV's weights; 16-bit images are reduced to
-/// 8 bits by OpenCV (value / 256), so stretch DSMs yourself before saving them when that matters.
+/// 8 bits by OpenCV (value / 256), so stretch DSMs yourself before saving them when that matters
+/// (read_image_grey8 of io/grey_image.hpp stretches them between percentiles, as epoch folders do).
 /// Throws diachron::Error naming the file when it does not exist or cannot be decoded.
 inline Raster<std::uint8_t> load_gray8(const std::string& path) {
   DIACHRON_CHECK(detail::path_exists(path), "cannot read image '" << path << "': no such file");
