@@ -1,9 +1,11 @@
 #include <catch2/catch.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <complex>
 #include <cstdint>
 #include <limits>
+#include <utility>
 #include <vector>
 
 #include <diachron/core/error.hpp>
@@ -52,6 +54,35 @@ TEST_CASE("Fft2: inverse undoes forward, and a delta has a flat spectrum", "[ter
   CHECK(std::abs(c[0]) < 1e-9);
   CHECK_THROWS_AS(diachron::Fft2(6, 4), diachron::Error);
   CHECK(diachron::next_power_of_two(33) == 64);
+}
+
+TEST_CASE("Fft2: equals the direct 2D DFT, forward and inverse, on every shape", "[terrain]") {
+  // The columns are transformed together, each butterfly along two whole rows: checked against
+  // the O(N^2) sum on wide, tall, square and degenerate shapes.
+  for (const auto& [w, h] : {std::pair{16, 8}, std::pair{4, 32}, std::pair{8, 8}, std::pair{1, 16}, std::pair{16, 1},
+                             std::pair{1, 1}}) {
+    diachron::Fft2 fft(w, h);
+    std::vector<std::complex<double>> x(static_cast<std::size_t>(w * h));
+    Lcg rng{static_cast<std::uint64_t>(w * 100 + h)};
+    for (auto& v : x) v = {rng.next() - 0.5, rng.next() - 0.5};
+    for (const bool inverse : {false, true}) {
+      std::vector<std::complex<double>> y = x;
+      if (inverse) fft.inverse(y); else fft.forward(y);
+      const double sign = inverse ? 1.0 : -1.0, scale = inverse ? 1.0 / (w * h) : 1.0;
+      double worst = 0.0;
+      for (int ky = 0; ky < h; ++ky)
+        for (int kx = 0; kx < w; ++kx) {
+          std::complex<double> sum(0.0, 0.0);
+          for (int yy = 0; yy < h; ++yy)
+            for (int xx = 0; xx < w; ++xx)
+              sum += x[static_cast<std::size_t>(yy * w + xx)] *
+                     std::polar(1.0, sign * 2.0 * diachron::kPi * (static_cast<double>(kx * xx) / w + static_cast<double>(ky * yy) / h));
+          worst = std::max(worst, std::abs(scale * sum - y[static_cast<std::size_t>(ky * w + kx)]));
+        }
+      INFO(w << " x " << h << (inverse ? " inverse" : " forward"));
+      CHECK(worst < 1e-12);
+    }
+  }
 }
 
 TEST_CASE("MaskedNcc: equals the direct sum over the overlap at every tested shift, holes included", "[terrain]") {

@@ -4,6 +4,7 @@
 /// row-major, unnormalised forward transform, inverse divided by the element count. Eigen + std only;
 /// written here so that the headers need no FFT library and stay warning-free.
 
+#include <algorithm>
 #include <cmath>
 #include <complex>
 #include <cstddef>
@@ -24,7 +25,8 @@ inline int next_power_of_two(int n) {
 }
 
 /// In-place 2D FFT of a width x height row-major complex array (both powers of two). The twiddle
-/// factors of each length are computed once per object, so one Fft2 serves many transforms of a size.
+/// factors and bit-reversal permutations of each length are computed once per object, so one Fft2
+/// serves many transforms of a size.
 class Fft2 {
  public:
   using Complex = std::complex<double>;
@@ -35,7 +37,8 @@ class Fft2 {
                    "Fft2 needs power-of-two sizes, got " << width << " x " << height);
     make_twiddles(width_, twiddles_x_);
     make_twiddles(height_, twiddles_y_);
-    column_.resize(static_cast<std::size_t>(height_));
+    make_reversal(width_, reversal_x_);
+    make_reversal(height_, reversal_y_);
   }
 
   int width() const { return width_; }
@@ -43,9 +46,9 @@ class Fft2 {
   std::size_t size() const { return static_cast<std::size_t>(width_) * static_cast<std::size_t>(height_); }
 
   /// Forward transform (exp(-2 pi i k n / N)), no scaling.
-  void forward(std::vector<Complex>& data) { transform(data, false); }
+  void forward(std::vector<Complex>& data) const { transform(data, false); }
   /// Inverse transform, divided by width x height, so inverse(forward(x)) == x.
-  void inverse(std::vector<Complex>& data) {
+  void inverse(std::vector<Complex>& data) const {
     transform(data, true);
     const double k = 1.0 / static_cast<double>(size());
     for (Complex& c : data) c *= k;
@@ -60,42 +63,63 @@ class Fft2 {
     }
   }
 
-  // Iterative Cooley-Tukey on `n` elements `stride` apart; inverse uses the conjugate twiddles.
-  static void fft1(Complex* a, int n, const std::vector<Complex>& tw, bool inverse) {
+  static void make_reversal(int n, std::vector<int>& out) {
+    out.assign(static_cast<std::size_t>(n), 0);
     for (int i = 1, j = 0; i < n; ++i) {
       int bit = n >> 1;
       for (; j & bit; bit >>= 1) j ^= bit;
       j ^= bit;
-      if (i < j) std::swap(a[i], a[j]);
+      out[static_cast<std::size_t>(i)] = j;
+    }
+  }
+
+  // One radix-2 butterfly stage pass, written out on doubles: std::complex's operator* handles
+  // infinities (C99 Annex G) at a large cost, and GCC vectorises the plain loop. `count` pairs of
+  // complex values, p[x] and q[x], become p + w q and p - w q.
+  static void butterflies(double* p, double* q, int count, double wr, double wi) {
+    for (int x = 0; x < count; ++x) {
+      const double qr = q[2 * x], qi = q[2 * x + 1];
+      const double vr = qr * wr - qi * wi, vi = qr * wi + qi * wr;
+      const double ur = p[2 * x], ui = p[2 * x + 1];
+      p[2 * x] = ur + vr;
+      p[2 * x + 1] = ui + vi;
+      q[2 * x] = ur - vr;
+      q[2 * x + 1] = ui - vi;
+    }
+  }
+
+  // Iterative Cooley-Tukey over n "elements" of `width` complex values each, `width` apart: with
+  // width 1 a row's FFT; with the row length, the FFTs of all columns at once, each butterfly
+  // running along two whole rows (contiguous, where a column's elements are a row apart).
+  static void fft(Complex* a, int n, int width, const std::vector<Complex>& tw, const std::vector<int>& reversal,
+                  bool inverse) {
+    const std::size_t w = static_cast<std::size_t>(width);
+    for (int i = 0; i < n; ++i) {
+      const int j = reversal[static_cast<std::size_t>(i)];
+      if (i < j) std::swap_ranges(a + i * w, a + (i + 1) * w, a + j * w);
     }
     for (int len = 2; len <= n; len <<= 1) {
       const int half = len / 2, step = n / len;
-      for (int i = 0; i < n; i += len)
-        for (int k = 0; k < half; ++k) {
-          const Complex w = tw[static_cast<std::size_t>(k * step)];
-          const double wr = w.real(), wi = inverse ? -w.imag() : w.imag();
-          // Written out: std::complex's operator* handles infinities (C99 Annex G) at a large cost.
-          const Complex x = a[i + k + half];
-          const Complex u = a[i + k], v(x.real() * wr - x.imag() * wi, x.real() * wi + x.imag() * wr);
-          a[i + k] = u + v;
-          a[i + k + half] = u - v;
-        }
+      for (int k = 0; k < half; ++k) {
+        const Complex t = tw[static_cast<std::size_t>(k * step)];
+        const double wr = t.real(), wi = inverse ? -t.imag() : t.imag();
+        for (int i = 0; i < n; i += len)
+          butterflies(reinterpret_cast<double*>(a + (i + k) * w), reinterpret_cast<double*>(a + (i + k + half) * w),
+                      width, wr, wi);
+      }
     }
   }
 
-  void transform(std::vector<Complex>& data, bool inverse) {
+  void transform(std::vector<Complex>& data, bool inverse) const {
     DIACHRON_CHECK(data.size() == size(), "Fft2: data has " << data.size() << " elements, expected " << size());
-    for (int y = 0; y < height_; ++y) fft1(data.data() + static_cast<std::size_t>(y) * width_, width_, twiddles_x_, inverse);
-    // Columns through a contiguous buffer: strided butterflies are slow on large rasters.
-    for (int x = 0; x < width_; ++x) {
-      for (int y = 0; y < height_; ++y) column_[static_cast<std::size_t>(y)] = data[static_cast<std::size_t>(y) * width_ + x];
-      fft1(column_.data(), height_, twiddles_y_, inverse);
-      for (int y = 0; y < height_; ++y) data[static_cast<std::size_t>(y) * width_ + x] = column_[static_cast<std::size_t>(y)];
-    }
+    for (int y = 0; y < height_; ++y)
+      fft(data.data() + static_cast<std::size_t>(y) * width_, width_, 1, twiddles_x_, reversal_x_, inverse);
+    fft(data.data(), height_, width_, twiddles_y_, reversal_y_, inverse);
   }
 
   int width_, height_;
-  std::vector<Complex> twiddles_x_, twiddles_y_, column_;
+  std::vector<Complex> twiddles_x_, twiddles_y_;
+  std::vector<int> reversal_x_, reversal_y_;
 };
 
 }  // namespace diachron

@@ -56,6 +56,8 @@ struct MaskedNccMap {
 ///   r = sum_c cov_c / sqrt(sum_c var_f,c * sum_c var_g,c).
 /// The channels of one raster must share their holes. Two channels cost two forward and four
 /// inverse FFTs per moving raster.
+///
+/// correlate() reuses work arrays held by the object: use one object per thread.
 class MaskedNcc {
  public:
   using Complex = std::complex<double>;
@@ -76,7 +78,8 @@ class MaskedNcc {
                    "masked NCC needs positive moving sizes, got " << max_moving_width << " x " << max_moving_height);
     max_moving_width_ = max_moving_width;
     max_moving_height_ = max_moving_height;
-    const std::vector<std::vector<Complex>> z = transformed_planes(fixed);
+    transform_planes(fixed, planes_);
+    const std::vector<std::vector<Complex>>& z = planes_;
     f1_.assign(channels_, std::vector<Complex>(fft_.size()));
     f2_.resize(fft_.size());
     m_.resize(fft_.size());
@@ -108,7 +111,8 @@ class MaskedNcc {
                    "masked NCC: moving raster " << mw << " x " << mh << " exceeds the bound "
                                                 << max_moving_width_ << " x " << max_moving_height_);
     DIACHRON_CHECK(min_overlap >= 1 && min_variance >= 0.0, "masked NCC needs min_overlap >= 1 and min_variance >= 0");
-    const std::vector<std::vector<Complex>> g = transformed_planes(moving);
+    transform_planes(moving, planes_);
+    const std::vector<std::vector<Complex>>& g = planes_;
     // Products written out: std::complex's operator* checks for infinities and NaNs on every call
     // (C99 Annex G), which costs more than the FFTs here, and these values are always finite.
     const auto mul_conj = [](const Complex& x, const Complex& y) {  // x conj(y)
@@ -118,7 +122,8 @@ class MaskedNcc {
     // 3 cross sum (over the channels: the spectra add), then per channel the sums of fixed and of
     // moving. Each is real, so two share an inverse FFT: correlation j goes into buffer j / 2, in
     // the real part when j is even, else in the imaginary part (i times a Hermitian spectrum).
-    std::vector<std::vector<Complex>> out((5 + 2 * channels_) / 2, std::vector<Complex>(fft_.size()));
+    std::vector<std::vector<Complex>>& out = out_;
+    zeroed(out, (5 + 2 * channels_) / 2);
     const auto put = [&](std::size_t j, std::size_t k, const Complex& v) {
       Complex& o = out[j / 2][k];
       o = j % 2 ? Complex(o.real() - v.imag(), o.imag() + v.real()) : Complex(o.real() + v.real(), o.imag() + v.imag());
@@ -194,8 +199,8 @@ class MaskedNcc {
   // The real planes of a signal, zero-padded to the FFT size and transformed two to a complex FFT:
   // plane p lies in buffer p / 2, in the real part when p is even, else in the imaginary part (see
   // unpack). Planes: each channel centred on its mean, then the sum of their squares, then the mask.
-  std::vector<std::vector<Complex>> transformed_planes(const std::vector<Raster<float>>& signal) {
-    std::vector<std::vector<Complex>> z((channels_ + 3) / 2, std::vector<Complex>(fft_.size()));
+  void transform_planes(const std::vector<Raster<float>>& signal, std::vector<std::vector<Complex>>& z) {
+    zeroed(z, (channels_ + 3) / 2);
     const auto add = [&](std::size_t p, std::size_t i, double v) {
       Complex& c = z[p / 2][i];
       c = p % 2 ? Complex(c.real(), c.imag() + v) : Complex(c.real() + v, c.imag());
@@ -214,7 +219,13 @@ class MaskedNcc {
         }
     }
     for (std::vector<Complex>& b : z) fft_.forward(b);
-    return z;
+  }
+
+  // `buffers` as `count` zeroed arrays of the FFT size, their memory reused from the last call:
+  // allocating and faulting in fresh arrays took about as long as the FFTs themselves.
+  void zeroed(std::vector<std::vector<Complex>>& buffers, std::size_t count) const {
+    buffers.resize(count);
+    for (std::vector<Complex>& b : buffers) b.assign(fft_.size(), Complex(0.0, 0.0));
   }
 
   // Calls f(k, mk) for every frequency index k, with mk the index of -k.
@@ -242,6 +253,7 @@ class MaskedNcc {
   Fft2 fft_;
   std::vector<std::vector<Complex>> f1_;  ///< per channel: the centred values' spectrum
   std::vector<Complex> f2_, m_;           ///< the sum of squares' and the mask's spectra
+  std::vector<std::vector<Complex>> planes_, out_;  ///< correlate()'s work arrays, kept between calls
 };
 
 namespace detail {
