@@ -7,6 +7,9 @@ function(diachron_program target)
     # instrumentation (seen in Eigen's check_for_aliasing and std::regex); the Release build keeps it.
     target_compile_options(${target} PRIVATE -fsanitize=address,undefined -fno-omit-frame-pointer
                                              -fno-sanitize-recover=undefined -Wno-maybe-uninitialized)
+    if(DIACHRON_SANITIZE_UNDEFINED_EXCLUDE)
+      target_compile_options(${target} PRIVATE -fno-sanitize=${DIACHRON_SANITIZE_UNDEFINED_EXCLUDE})
+    endif()
     target_link_options(${target} PRIVATE -fsanitize=address,undefined)
   endif()
 endfunction()

@@ -52,6 +52,7 @@
 
 #include <opencv2/imgproc.hpp>
 #if DIACHRON_MATCH_EPOCHS_ADJUST
+#include <diachron/eval/distortion_precision.hpp>
 #include <diachron/io/adjusted_export.hpp>
 #include <diachron/pipeline/combined_adjustment.hpp>
 #include <diachron/vision/draw_residuals.hpp>
@@ -273,7 +274,20 @@ std::string adjustment_json(const CombinedAdjustmentResult& a, const AdjustedExp
       o << (k ? ", " : "") << quoted(p.name) << ": {\"before\": " << json_number_or_null(p.before)
         << ", \"after\": " << json_number_or_null(p.after) << ", \"sigma\": " << json_number_or_null(p.sigma) << "}";
     }
-    o << "}}";
+    o << "}, \"distortion_sigma\": ";
+    // The covariance carried to the distortion over the image (eval/distortion_precision.hpp): what
+    // the block determines, without the truth. Camera c is epoch c's (one camera per epoch).
+    const std::vector<Frame<FraserAffine>>& frames = r.cameras[c].camera == 0 ? a.epoch1 : a.epoch2;
+    const DistortionPrecision precision = !r.cameras[c].covariance.empty() && !frames.empty()
+                                              ? distortion_precision(frames.front().camera(), r.cameras[c].covariance)
+                                              : DistortionPrecision{};
+    if (precision.valid)
+      o << "{\"worst_px\": " << json_number_or_null(precision.max_sigma_px) << ", \"rms_px\": "
+        << json_number_or_null(precision.rms_sigma_px) << ", \"worst_pixel\": [" << precision.worst_pixel.x() << ", "
+        << precision.worst_pixel.y() << "]}";
+    else
+      o << "null";
+    o << "}";
   }
   o << "],\n    \"solves\": [";
   for (std::size_t k = 0; k < r.solves.size(); ++k)

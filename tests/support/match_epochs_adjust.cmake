@@ -1,7 +1,7 @@
 # match_epochs --adjust end to end on the smallest make_scene scene that co-registers (800 x 600 px,
 # 2 x 2 images per epoch, seed 1): exit 0, every output the docs promise (rough_helmert.json, Homol,
 # report.json with the adjustment's section, adjusted/cameras.json and one COLMAP text model per
-# epoch), the adjusted epoch 1 judged at the scene's check points by score_adjusted_epochs, and the
+# epoch), the adjusted epoch 1 judged at the scene's check points by score_epochs --check, and the
 # inputs unchanged.
 #   cmake -DMAKE_SCENE=... -DMATCH_EPOCHS=... -DSCORE=... -DWORK=... -P match_epochs_adjust.cmake
 include("${CMAKE_CURRENT_LIST_DIR}/scene_folders.cmake")
@@ -33,7 +33,12 @@ endif()
 if(NOT report MATCHES "\"affine_scope\": *\"per_image\"")
   message(FATAL_ERROR "report.json does not say where B1, B2 lived (per image by default):\n${report}")
 endif()
-execute_process(COMMAND "${SCORE}" "${WORK}/scene" "${WORK}/out" RESULT_VARIABLE scored OUTPUT_VARIABLE score)
+# The adjustment's own precision figure (the covariance carried to the distortion): epoch 1's camera
+# is free, so it has one.
+if(NOT report MATCHES "\"camera\": *0, *\"free\": *true, *\"values\": *{[^}]*}[^\n]*\"distortion_sigma\": *{\"worst_px\": *[0-9.e+-]+, *\"rms_px\"")
+  message(FATAL_ERROR "report.json gives epoch 1's camera no distortion_sigma:\n${report}")
+endif()
+execute_process(COMMAND "${SCORE}" "${WORK}/scene" "${WORK}/out" --check RESULT_VARIABLE scored OUTPUT_VARIABLE score)
 if(NOT scored EQUAL 0)
   message(FATAL_ERROR "the adjusted orientation fails its check points (${scored}):\n${score}")
 endif()
