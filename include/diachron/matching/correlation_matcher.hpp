@@ -73,8 +73,8 @@ struct CorrelationMatchOptions {
   /// image is low-pass filtered instead of aliased.
   bool antialias = true;
   /// Sub-pixel refinement of a kept peak: after the parabola through the integer surface, this many
-  /// rounds of a parabola through a 3 x 3 grid of scores at 0.5, 0.25, 0.125, ... master px around
-  /// the current estimate (each score resampled afresh), in [0, 8]. The integer-grid parabola alone
+  /// rounds of a parabola per axis through the scores at the current estimate and 0.5, 0.25, 0.125,
+  /// ... master px either side of it (each score resampled afresh), in [0, 8]. The integer-grid parabola alone
   /// is biased by up to ~0.2 master px on peaks that are not parabolic; 3 rounds bring it under 0.05
   /// on the tests' textures.
   int subpixel_rounds = 3;
@@ -452,25 +452,25 @@ double correlation_score_at(const Raster<T>& secondary, const Eigen::Vector2d& c
   return std::clamp(cross / std::sqrt(s.master_var * var), -1.0, 1.0);
 }
 
-// Rounds of 3 x 3 score grids at halving steps around the peak, each recentred on its parabola's
-// vertex. Stops (keeping the last estimate) when a score cannot be computed.
+// Rounds of scores at halving steps around the peak (the centre and its four neighbours along the
+// axes, all the two parabolas use), each recentred on the parabolas' vertex. Stops (keeping the last
+// estimate) when a score cannot be computed.
 template <class T>
 void correlation_refine(const Raster<T>& secondary, const Eigen::Vector2d& b0, const Eigen::Matrix2d& affine,
                         const CorrelationMatchOptions& o, CorrelationScratch& s, CorrelationPeak& p) {
   Eigen::Vector2d c = p.shift;
   double h = 0.5;
+  const int offsets[5][2] = {{0, 0}, {-1, 0}, {1, 0}, {0, -1}, {0, 1}};
   for (int round = 0; round < o.subpixel_rounds; ++round, h *= 0.5) {
-    double v[3][3];
+    double v[5];
     bool ok = true;
-    for (int j = 0; j < 3 && ok; ++j)
-      for (int i = 0; i < 3 && ok; ++i) {
-        v[j][i] = correlation_score_at(secondary, Eigen::Vector2d(b0 + affine * (c + h * Eigen::Vector2d(i - 1, j - 1))),
-                                       affine, o, s);
-        ok = std::isfinite(v[j][i]);
-      }
+    for (int k = 0; k < 5 && ok; ++k) {
+      v[k] = correlation_score_at(
+          secondary, Eigen::Vector2d(b0 + affine * (c + h * Eigen::Vector2d(offsets[k][0], offsets[k][1]))), affine, o, s);
+      ok = std::isfinite(v[k]);
+    }
     if (!ok) break;
-    c += h * Eigen::Vector2d(correlation_vertex(v[1][0], v[1][1], v[1][2], 1.0),
-                             correlation_vertex(v[0][1], v[1][1], v[2][1], 1.0));
+    c += h * Eigen::Vector2d(correlation_vertex(v[1], v[0], v[2], 1.0), correlation_vertex(v[3], v[0], v[4], 1.0));
   }
   const double score = correlation_score_at(secondary, Eigen::Vector2d(b0 + affine * c), affine, o, s);
   if (!std::isfinite(score)) return;
