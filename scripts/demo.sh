@@ -35,6 +35,8 @@ if [ -z "$out" ]; then
 elif [ -e "$out/scene" ] || [ -e "$out/result" ]; then
   echo "demo: $out already holds a scene/ or result/ folder; choose another --out" >&2
   exit 1
+else
+  mkdir -p "$out"
 fi
 threads_flag=()
 [ "$threads" != 0 ] && threads_flag=(--threads "$threads")
