@@ -13,7 +13,8 @@
 //   DIR/pairs/<a>--<b>.png  each pair's final matches
 // and with --adjust (the combined adjustment, pipeline/combined_adjustment.hpp: epoch 2 fixed,
 // epoch 1's poses, Fraser camera and affine parts free, intra-epoch tie points from points3D.txt
-// and the inter-epoch ones above), in epoch 2's frame:
+// and the inter-epoch ones above; images whose cameras hold the same values share one, or all of
+// epoch 1's with --one-camera), in epoch 2's frame:
 //   DIR/adjusted/cameras.json, DIR/adjusted/<epoch>/  the adjusted orientation (io/adjusted_export.hpp)
 //   DIR/adjusted/residuals/<image>.png                 reprojection residuals of epoch 1's tie points
 //   the "adjustment" section of report.json
@@ -95,6 +96,10 @@ const char* kUsage =
     "\n"
     "  --affine image|camera                  with --adjust: B1, B2 per image (default) or one pair\n"
     "                                         per camera (MicMac's Fraser calibration)\n"
+    "  --one-camera                           with --adjust: epoch 1's images share one camera (the\n"
+    "                                         first image's values), e.g. one film camera whose SfM\n"
+    "                                         gave each scan its own; without it images share a\n"
+    "                                         camera when cameras.txt gives them the same values\n"
     "  --threads N                            worker threads, 0 = all cores (default 0)\n"
     "  --quiet                                no progress on stderr\n";
 
@@ -212,14 +217,16 @@ std::string folder_name(std::string dir) {
 }
 
 // The epoch as the combined adjustment takes it: the frames and the tracks of points3D.txt as
-// intra-epoch tie points (pixels in diachron's convention).
-CombinedEpoch combined_epoch(const EpochFolder& e) {
+// intra-epoch tie points (pixels in diachron's convention). Images whose cameras hold the same
+// values share one (CombinedEpoch::cameras empty), or all do with `one_camera`.
+CombinedEpoch combined_epoch(const EpochFolder& e, bool one_camera) {
   CombinedEpoch out;
   std::map<std::uint32_t, int> index;
   for (std::size_t i = 0; i < e.images.size(); ++i) {
     out.frames.push_back(e.images[i].frame);
     index[e.images[i].id] = static_cast<int>(i);
   }
+  if (one_camera) out.cameras.assign(out.frames.size(), 0);
   for (const auto& [id, point] : e.model.points3d) {
     std::vector<ImagePixel> tie;
     for (const ColmapTrackElement& t : point.track) {
@@ -250,8 +257,9 @@ std::string json_number_or_null(double v) {
 }
 
 // The "adjustment" section of report.json.
-std::string adjustment_json(const CombinedAdjustmentResult& a, const AdjustedExportReport* exported,
-                            AffineScope affine_scope) {
+// `names`: the images' names, epoch 1's then epoch 2's (CombinedAdjustmentResult::image_camera's order).
+std::string adjustment_json(const CombinedAdjustmentResult& a, const std::vector<std::string>& names,
+                            const AdjustedExportReport* exported, AffineScope affine_scope) {
   const BundleReport& r = a.report;
   std::ostringstream o;
   o << "  \"adjustment\": {\"success\": " << (r.success ? "true" : "false") << ", \"message\": " << quoted(r.message)
@@ -266,7 +274,11 @@ std::string adjustment_json(const CombinedAdjustmentResult& a, const AdjustedExp
     << ", \"inter_epoch\": " << json_rms(r.after.inter_epoch) << "},\n    \"sigma0\": " << json_number_or_null(r.sigma0)
     << ", \"covariance\": " << quoted(r.covariance_available ? "available" : r.covariance_message)
     << ",\n    \"cameras\": [";
+  const std::size_t n1 = a.epoch1.size();
   for (std::size_t c = 0; c < r.cameras.size(); ++c) {
+    // The camera's first image (epoch 1's images first, then epoch 2's).
+    const auto at = std::find(a.image_camera.begin(), a.image_camera.end(), r.cameras[c].camera);
+    const auto first = static_cast<std::size_t>(at - a.image_camera.begin());
     o << (c ? ",\n      " : "\n      ") << "{\"camera\": " << r.cameras[c].camera << ", \"free\": "
       << (r.cameras[c].free ? "true" : "false") << ", \"values\": {";
     for (std::size_t k = 0; k < r.cameras[c].values.size(); ++k) {
@@ -274,12 +286,16 @@ std::string adjustment_json(const CombinedAdjustmentResult& a, const AdjustedExp
       o << (k ? ", " : "") << quoted(p.name) << ": {\"before\": " << json_number_or_null(p.before)
         << ", \"after\": " << json_number_or_null(p.after) << ", \"sigma\": " << json_number_or_null(p.sigma) << "}";
     }
-    o << "}, \"distortion_sigma\": ";
+    o << "}, \"epoch\": " << (first < n1 ? 1 : 2) << ", \"images\": [";
+    for (std::size_t i = 0, k = 0; i < a.image_camera.size(); ++i)
+      if (a.image_camera[i] == r.cameras[c].camera) o << (k++ ? ", " : "") << quoted(names[i]);
+    o << "], \"distortion_sigma\": ";
     // The covariance carried to the distortion over the image (eval/distortion_precision.hpp): what
-    // the block determines, without the truth. Camera c is epoch c's (one camera per epoch).
-    const std::vector<Frame<FraserAffine>>& frames = r.cameras[c].camera == 0 ? a.epoch1 : a.epoch2;
-    const DistortionPrecision precision = !r.cameras[c].covariance.empty() && !frames.empty()
-                                              ? distortion_precision(frames.front().camera(), r.cameras[c].covariance)
+    // the block determines, without the truth.
+    const Frame<FraserAffine>* frame =
+        first < n1 ? &a.epoch1[first] : first < n1 + a.epoch2.size() ? &a.epoch2[first - n1] : nullptr;
+    const DistortionPrecision precision = !r.cameras[c].covariance.empty() && frame
+                                              ? distortion_precision(frame->camera(), r.cameras[c].covariance)
                                               : DistortionPrecision{};
     if (precision.valid)
       o << "{\"worst_px\": " << json_number_or_null(precision.max_sigma_px) << ", \"rms_px\": "
@@ -373,7 +389,7 @@ int main(int argc, char** argv) {
   std::string dir1, dir2, out_dir, method = "correlation", matcher_name = "rootsift", model_path, measure, affine;
   PreciseMatchingOptions options;
   OverlappingPairsOptions overlap_options;
-  bool quiet = false, pictures = true, adjust = false, fallback = true;
+  bool quiet = false, pictures = true, adjust = false, fallback = true, one_camera = false;
   double min_overlap = 0.1;
   std::optional<int> cell;  // unset: the default cell
   GeoTiffReadOptions dsm_read;
@@ -414,6 +430,7 @@ int main(int argc, char** argv) {
       else if (a == "--threads") threads = std::stoul(value());
       else if (a == "--adjust") adjust = true;
       else if (a == "--affine") affine = value();
+      else if (a == "--one-camera") one_camera = true;
       else if (a == "--quiet") quiet = true;
       else if (a == "--help" || a == "-h") {
         std::cout << kUsage;
@@ -430,6 +447,7 @@ int main(int argc, char** argv) {
     DIACHRON_CHECK(affine.empty() || affine == "image" || affine == "camera",
                    "unknown --affine '" << affine << "' (image or camera)");
     DIACHRON_CHECK(adjust || affine.empty(), "--affine needs --adjust");
+    DIACHRON_CHECK(adjust || !one_camera, "--one-camera needs --adjust");
     DIACHRON_CHECK(method == "patch" || method == "guided" || method == "correlation",
                    "unknown --method '" << method << "' (correlation, patch or guided)");
     if (measure == "intensity") options.correlation.match.measure = CorrelationMeasure::intensity;
@@ -573,13 +591,16 @@ int main(int argc, char** argv) {
       CombinedAdjustmentOptions adjustment_options;
       if (affine == "camera") adjustment_options.bundle.affine_scope = AffineScope::per_camera;
       const CombinedAdjustmentResult adjusted =
-          combined_adjustment(combined_epoch(e1), combined_epoch(e2), epoch_pair_matches(precise.pairs),
-                              rough.epoch2_from_epoch1, adjustment_options);
+          combined_adjustment(combined_epoch(e1, one_camera), combined_epoch(e2, false),
+                              epoch_pair_matches(precise.pairs), rough.epoch2_from_epoch1, adjustment_options);
+      std::vector<std::string> names;
+      for (const EpochFolder* e : {&e1, &e2})
+        for (const EpochImage& image : e->images) names.push_back(image.name);
       const BundleReport& r = adjusted.report;
       std::printf("adjustment: %s\n", r.message.c_str());
       if (!r.success) {
         write_report(out_dir + "/report.json", e1, e2, rough, overlap, precise, method, matcher_name,
-                     adjustment_json(adjusted, nullptr, adjustment_options.bundle.affine_scope));
+                     adjustment_json(adjusted, names, nullptr, adjustment_options.bundle.affine_scope));
         std::printf("no adjustment: %s\n", r.message.c_str());
         return 2;
       }
@@ -600,7 +621,7 @@ int main(int argc, char** argv) {
       const AdjustedExportReport exported = write_adjusted_export(images, out_dir, export_options);
       if (pictures) write_residual_pictures(out_dir + "/adjusted/residuals", e1, pictures1, adjusted);
       write_report(out_dir + "/report.json", e1, e2, rough, overlap, precise, method, matcher_name,
-                   adjustment_json(adjusted, &exported, adjustment_options.bundle.affine_scope));
+                   adjustment_json(adjusted, names, &exported, adjustment_options.bundle.affine_scope));
       std::printf("reprojection RMS %.3f -> %.3f px (inter-epoch %.3f -> %.3f px); wrote %s and %s "
                   "(largest COLMAP conversion error %.3f px)\n",
                   r.before.all.rms_px, r.after.all.rms_px, r.before.inter_epoch.rms_px, r.after.inter_epoch.rms_px,

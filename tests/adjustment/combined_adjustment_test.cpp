@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <random>
 #include <vector>
 
@@ -193,4 +194,121 @@ TEST_CASE("combined_adjustment: per-match weights discount the direction a match
   EpochPairMatches wrong = *nonempty;
   wrong.weights.pop_back();
   CHECK_THROWS_AS(combined_adjustment(e1, e2, {wrong}, rough), Error);
+}
+
+namespace {
+
+// Epoch 2 as an SfM with two cameras would deliver it: the odd images through a second camera
+// (focal length 5 % longer, principal point and K1 moved), true poses, and its tie points and the
+// inter-epoch matches observed through each image's own camera (0.3 px noise).
+struct TwoCameraEpoch2 {
+  CombinedEpoch epoch;
+  std::vector<EpochPairMatches> matches;
+};
+
+TwoCameraEpoch2 two_camera_epoch2(const Scene& s) {
+  const SyntheticEpoch& e1 = s.epochs[0];
+  const SyntheticEpoch& e2 = s.epochs[1];
+  const Camera<FraserAffine>& first = e2.camera;
+  Camera<FraserAffine>::Params params = first.params();
+  params[0] += 0.01;  // K1
+  const Camera<FraserAffine> second(1.05 * first.focal(), first.cx() + 8.0, first.cy() - 5.0, first.width(),
+                                    first.height(), params);
+  TwoCameraEpoch2 out;
+  for (std::size_t q = 0; q < e2.images.size(); ++q)
+    out.epoch.frames.emplace_back(q % 2 ? second : first, e2.images[q].pose_epoch);
+  std::mt19937_64 random(11);
+  std::normal_distribution<double> noise(0.0, 0.3);
+  const auto seen = [&](const Vec3& world, std::size_t q) -> std::optional<Vec2> {
+    const auto px = out.epoch.frames[q].project(e2.epoch_from_world()(world));
+    if (!px || !out.epoch.frames[q].in_image(*px)) return std::nullopt;
+    return *px + Vec2(noise(random), noise(random));
+  };
+  for (const TiePoint& t : e2.tie_points) {
+    std::vector<ImagePixel> tie;
+    for (std::size_t q = 0; q < e2.images.size(); ++q)
+      if (const auto px = seen(t.world, q)) tie.push_back({static_cast<int>(q), *px});
+    if (tie.size() >= 2) out.epoch.tie_points.push_back(std::move(tie));
+  }
+  for (std::size_t m = 0; m < e1.images.size(); ++m)
+    for (std::size_t q = 0; q < e2.images.size(); ++q) out.matches.push_back({m, q, {}});
+  for (const TiePoint& t : e1.tie_points)
+    for (std::size_t q = 0; q < e2.images.size(); ++q)
+      if (const auto secondary = seen(t.world, q))
+        for (const ImageObservation& o : t.observations)
+          out.matches[static_cast<std::size_t>(o.image) * e2.images.size() + q].matches.push_back(
+              {o.pixel, *secondary, 1.0});
+  return out;
+}
+
+}  // namespace
+
+TEST_CASE("combined_adjustment: every image keeps its own camera when an epoch has several", "[adjustment][pipeline]") {
+  const Scene& s = scene();
+  const CombinedEpoch e1 = combined_epoch(s.epochs[0]);
+  const TwoCameraEpoch2 two = two_camera_epoch2(s);
+  const Helmert3 rough = rough_helmert(s);
+  CombinedAdjustmentOptions options;
+  options.bundle.inter_epoch_sigma_px = 1.0;  // matches as precise as the tie points, as in the nominal case
+  const double gsd_e2 = s.epochs[0].gsd_m * s.epochs[1].epoch_from_world().scale;
+  const double before = check_point_rms(s, transformed_frames(e1.frames, rough));
+
+  // Without labels the cameras follow the frames: one for epoch 1, two for epoch 2.
+  const CombinedAdjustmentResult own = combined_adjustment(e1, two.epoch, two.matches, rough, options);
+  INFO(own.report.message);
+  REQUIRE(own.report.success);
+  const std::size_t n1 = e1.frames.size();
+  REQUIRE(own.image_camera.size() == n1 + two.epoch.frames.size());
+  for (std::size_t i = 0; i < n1; ++i) CHECK(own.image_camera[i] == 0);
+  for (std::size_t q = 0; q < two.epoch.frames.size(); ++q) CHECK(own.image_camera[n1 + q] == 1 + static_cast<int>(q % 2));
+  CHECK(own.report.cameras.size() == 3);
+  // The fixed reference comes back as given, camera and pose, bit for bit.
+  for (std::size_t q = 0; q < two.epoch.frames.size(); ++q) {
+    CHECK(own.epoch2[q].camera().intrinsics() == two.epoch.frames[q].camera().intrinsics());
+    CHECK((own.epoch2[q].pose().centre() - two.epoch.frames[q].pose().centre()).norm() == 0.0);
+  }
+  const double after_own = check_point_rms(s, own.epoch1);
+  INFO("check points: rough " << before << ", own cameras " << after_own << " epoch-2 units; GSD " << gsd_e2);
+  CHECK(after_own * 3.0 < before);
+  CHECK(after_own < 1.5 * gsd_e2);
+
+  // One label for epoch 2 forces one camera (the first image's): the odd images then look through
+  // the wrong camera, and the fixed reference drags epoch 1 away.
+  CombinedEpoch forced = two.epoch;
+  forced.cameras.assign(forced.frames.size(), 7);
+  const CombinedAdjustmentResult shared = combined_adjustment(e1, forced, two.matches, rough, options);
+  REQUIRE(shared.report.success);
+  CHECK(shared.report.cameras.size() == 2);
+  CHECK(shared.epoch2[1].camera().focal() == two.epoch.frames[0].camera().focal());
+  const double after_shared = check_point_rms(s, shared.epoch1);
+  INFO("one forced camera: " << after_shared);
+  CHECK(after_shared > 2.0 * after_own);
+
+  // Labels that name the cameras as the frames do give the same answer as none.
+  CombinedEpoch labelled = two.epoch;
+  for (std::size_t q = 0; q < labelled.frames.size(); ++q) labelled.cameras.push_back(q % 2 ? 3 : 9);
+  const CombinedAdjustmentResult same = combined_adjustment(e1, labelled, two.matches, rough, options);
+  REQUIRE(same.report.success);
+  CHECK(same.image_camera == own.image_camera);
+  CHECK(check_point_rms(s, same.epoch1) == Approx(after_own).epsilon(1e-9));
+}
+
+TEST_CASE("combined_adjustment: malformed camera labels are refused", "[adjustment][pipeline]") {
+  const Scene& s = scene();
+  const CombinedEpoch e1 = combined_epoch(s.epochs[0]), e2 = combined_epoch(s.epochs[1]);
+  const Helmert3 rough = rough_helmert(s);
+  const std::vector<EpochPairMatches> matches = true_matches(s, 1);
+  CombinedEpoch bad = e2;
+  bad.cameras = {0, 0};  // fewer labels than images
+  CHECK_THROWS_WITH(combined_adjustment(e1, bad, matches, rough), Catch::Contains("camera labels"));
+  bad.cameras.assign(e2.frames.size(), 0);
+  bad.cameras[1] = -1;
+  CHECK_THROWS_WITH(combined_adjustment(e1, bad, matches, rough), Catch::Contains("camera label -1"));
+  // One camera cannot serve two image sizes.
+  bad = e2;
+  bad.cameras.assign(e2.frames.size(), 0);
+  const Camera<FraserAffine>& c = bad.frames[1].camera();
+  bad.frames[1] = Frame<FraserAffine>(Camera<FraserAffine>(c.focal(), c.cx(), c.cy(), c.width() + 2, c.height(), c.params()),
+                                      bad.frames[1].pose());
+  CHECK_THROWS_WITH(combined_adjustment(e1, bad, matches, rough), Catch::Contains("share camera label 0"));
 }

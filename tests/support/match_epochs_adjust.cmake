@@ -38,6 +38,11 @@ endif()
 if(NOT report MATCHES "\"camera\": *0, *\"free\": *true, *\"values\": *{[^}]*}[^\n]*\"distortion_sigma\": *{\"worst_px\": *[0-9.e+-]+, *\"rms_px\"")
   message(FATAL_ERROR "report.json gives epoch 1's camera no distortion_sigma:\n${report}")
 endif()
+# Each camera says whose it is: the scene's epochs have one camera each.
+if(NOT report MATCHES "\"camera\": *0, [^\n]*\"epoch\": *1, *\"images\": *[[]\"e1_[^]]*[]]"
+   OR NOT report MATCHES "\"camera\": *1, [^\n]*\"epoch\": *2, *\"images\": *[[]\"e2_")
+  message(FATAL_ERROR "report.json does not give each camera its epoch and images:\n${report}")
+endif()
 execute_process(COMMAND "${SCORE}" "${WORK}/scene" "${WORK}/out" --check RESULT_VARIABLE scored OUTPUT_VARIABLE score)
 if(NOT scored EQUAL 0)
   message(FATAL_ERROR "the adjusted orientation fails its check points (${scored}):\n${score}")

@@ -6,6 +6,7 @@
 /// (epoch 2 fixed by default; epoch 1's poses, camera and affine free) co-registers and
 /// self-calibrates epoch 1. Plain inputs in, adjusted copies and a report out.
 
+#include <algorithm>
 #include <cstddef>
 #include <string>
 #include <utility>
@@ -16,6 +17,7 @@
 #include <diachron/adjustment/bundle_adjustment.hpp>
 #include <diachron/adjustment/bundle_options.hpp>
 #include <diachron/adjustment/bundle_report.hpp>
+#include <diachron/adjustment/reprojection_error.hpp>
 #include <diachron/adjustment/tracks.hpp>
 #include <diachron/camera/frame.hpp>
 #include <diachron/core/error.hpp>
@@ -26,10 +28,16 @@ namespace diachron {
 
 /// One epoch as the combined adjustment takes it, in the epoch's own frame.
 struct CombinedEpoch {
-  /// The images (one camera per epoch: the intrinsics start from the first image's).
+  /// The images, each with its own camera as the epoch's SfM estimated it.
   std::vector<Frame<FraserAffine>> frames;
   /// Intra-epoch tie points: per point, its observations (image index within this epoch, px).
   std::vector<std::vector<ImagePixel>> tie_points;
+  /// Camera of each image, any non-negative label (images with one label share f, cx, cy, K1-K3,
+  /// P1, P2, starting from the first such image's values, and must have one size). Empty: images
+  /// whose size and those eight values are equal share a camera, so every image keeps the camera
+  /// it was given (B1, B2 are per image unless AffineScope::per_camera). All one label: one camera
+  /// for the epoch whatever the frames hold, e.g. a film block whose SfM gave each scan its own.
+  std::vector<int> cameras = {};
 };
 
 /// The inter-epoch matches of one image pair: the shape of PrecisePairReport (master, secondary,
@@ -83,6 +91,9 @@ struct CombinedAdjustmentResult {
   BundleReport report;
   /// What the track building merged and dropped.
   TrackReport tracks;
+  /// Camera of each image as BundleReport::cameras numbers them (CameraReport::camera): epoch 1's
+  /// images first, then epoch 2's; epoch 1's cameras come first, in order of their first image.
+  std::vector<int> image_camera;
   /// Adjusted frames of epoch 1 and epoch 2 in the epoch-2 frame. When !report.success: epoch 1
   /// moved by the rough Helmert and epoch 2 as given.
   std::vector<Frame<FraserAffine>> epoch1;
@@ -95,6 +106,49 @@ struct CombinedAdjustmentResult {
   /// Whether each track took part to the end (after rejection).
   std::vector<bool> track_used;
 };
+
+namespace detail {
+
+// Dense camera numbers (0, 1, ... in order of first image) of one epoch's images, from its labels
+// or, without labels, by equal size and f, cx, cy, K1-K3, P1, P2.
+inline std::vector<int> combined_epoch_cameras(const CombinedEpoch& epoch, const char* which) {
+  const std::size_t n = epoch.frames.size();
+  DIACHRON_CHECK(epoch.cameras.empty() || epoch.cameras.size() == n,
+                 "combined_adjustment: " << which << " has " << epoch.cameras.size() << " camera labels for " << n
+                                         << " images");
+  std::vector<int> out(n, 0);
+  std::vector<std::size_t> first;  // first image of each camera
+  for (std::size_t i = 0; i < n; ++i) {
+    const Camera<FraserAffine>& camera = epoch.frames[i].camera();
+    std::size_t k = 0;
+    if (epoch.cameras.empty()) {
+      while (k < first.size()) {
+        const Camera<FraserAffine>& other = epoch.frames[first[k]].camera();
+        if (camera.width() == other.width() && camera.height() == other.height() &&
+            fraser_camera_block(camera) == fraser_camera_block(other))
+          break;
+        ++k;
+      }
+    } else {
+      DIACHRON_CHECK(epoch.cameras[i] >= 0,
+                     "combined_adjustment: " << which << " image " << i << " has camera label " << epoch.cameras[i]);
+      while (k < first.size() && epoch.cameras[first[k]] != epoch.cameras[i]) ++k;
+      if (k < first.size()) {
+        const Camera<FraserAffine>& other = epoch.frames[first[k]].camera();
+        DIACHRON_CHECK(camera.width() == other.width() && camera.height() == other.height(),
+                       "combined_adjustment: " << which << " images " << first[k] << " and " << i
+                                               << " share camera label " << epoch.cameras[i] << " but are "
+                                               << other.width() << " x " << other.height() << " and "
+                                               << camera.width() << " x " << camera.height() << " px");
+      }
+    }
+    if (k == first.size()) first.push_back(i);
+    out[i] = static_cast<int>(k);
+  }
+  return out;
+}
+
+}  // namespace detail
 
 /// Runs the combined adjustment.
 /// @param epoch1, epoch2 the epochs in their own frames.
@@ -117,6 +171,12 @@ inline CombinedAdjustmentResult combined_adjustment(const CombinedEpoch& epoch1,
   for (const auto& f : epoch2.frames) input.frames.push_back(f);
   input.image_epoch.assign(static_cast<std::size_t>(n1), 0);
   input.image_epoch.resize(static_cast<std::size_t>(n1 + n2), 1);
+  // Cameras never span the epochs: epoch 1's are numbered first.
+  input.image_camera = detail::combined_epoch_cameras(epoch1, "epoch 1");
+  const int cameras1 =
+      input.image_camera.empty() ? 0 : *std::max_element(input.image_camera.begin(), input.image_camera.end()) + 1;
+  for (int c : detail::combined_epoch_cameras(epoch2, "epoch 2")) input.image_camera.push_back(cameras1 + c);
+  result.image_camera = input.image_camera;
   result.epoch1.assign(input.frames.begin(), input.frames.begin() + n1);
   result.epoch2 = epoch2.frames;
 
