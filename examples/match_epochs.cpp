@@ -37,6 +37,7 @@
 #include <string>
 #include <vector>
 
+#include <diachron/core/progress.hpp>
 #include <diachron/io/epoch_folder.hpp>
 #include <diachron/io/folders.hpp>
 #include <diachron/io/geotiff.hpp>
@@ -473,9 +474,10 @@ int main(int argc, char** argv) {
     overlap_options.check();
     ProgressCallback progress;
     if (!quiet)
-      progress = [](const ProgressEvent& e) {
-        std::fprintf(stderr, "\r%s: %zu/%zu ", e.stage.c_str(), e.done, e.total);
-        if (e.done == e.total) std::fprintf(stderr, "\n");
+      progress = [clock = std::make_shared<ProgressClock>()](const ProgressEvent& e) {
+        // Padded: a line shorter than the one it overwrites leaves no tail behind.
+        std::fprintf(stderr, "\r%-72s", progress_line(e, (*clock)(e)).c_str());
+        if (e.done >= e.total) std::fprintf(stderr, "\n");
       };
     options.progress = progress;
 

@@ -22,6 +22,7 @@
 #include <string>
 #include <utility>
 
+#include <diachron/core/progress.hpp>
 #include <diachron/io/dsm_reproject.hpp>
 #include <diachron/io/folders.hpp>
 #include <diachron/io/geotiff.hpp>
@@ -196,9 +197,10 @@ int main(int argc, char** argv) {
       options.secondary_tiles.check();
     }
     if (!quiet)
-      options.progress = [](const ProgressEvent& e) {
-        std::fprintf(stderr, "\r%s: %zu/%zu ", e.stage.c_str(), e.done, e.total);
-        if (e.done == e.total) std::fprintf(stderr, "\n");
+      options.progress = [clock = std::make_shared<ProgressClock>()](const ProgressEvent& e) {
+        // Padded: a line shorter than the one it overwrites leaves no tail behind.
+        std::fprintf(stderr, "\r%-72s", progress_line(e, (*clock)(e)).c_str());
+        if (e.done >= e.total) std::fprintf(stderr, "\n");
       };
     Dsm master = read_geotiff_dsm(master_path, read_options);
     Dsm secondary = read_geotiff_dsm(secondary_path, read_options);
