@@ -19,6 +19,9 @@
 //   cauchy       Cauchy's loss instead of Huber's (same 1 px scale): large residuals weigh less
 //   shuffled errors   the truth's matches at the same master points, each given the error vector of
 //                another real match (a seeded shuffle): the matches' error without its structure
+//   K3 held      epoch 1's K3 held at the SfM's value (EpochFreedom::fixed_intrinsics); the scenes'
+//                SfM has K3 = 0, as the truth, so this holds the true value
+//   K3 P1 P2 held   the same with P1, P2 held too, at the SfM's values: half the truth's
 //   colmap       Debian's COLMAP 3.8 bundle_adjuster on the same images and tracks (nearest COLMAP
 //                cameras, no affine term; everything free, so its result is brought back onto epoch
 //                2's fixed orientation by the similarity of its epoch-2 centres onto the input's)
@@ -140,7 +143,7 @@ struct Outcome {
 const char* const kVariants[] = {"rough",          "intra only",   "no affine",         "full",
                                  "e2 camera free", "both free",    "oracle e2 frames", "oracle matches",
                                  "inter sigma 1",  "inter sigma X", "affine per camera", "staged", "cauchy", "shuffled errors",
-                                 "peak weighted", "peak weighted X", "colmap"};
+                                 "peak weighted", "peak weighted X", "K3 held", "K3 P1 P2 held", "colmap"};
 
 // Check points of epoch 1 triangulated with `frames` (epoch-2 frame), errors in world metres.
 CheckPointReport check_points(const Scene& scene, const Frames& frames) {
@@ -532,6 +535,13 @@ int run(int argc, char** argv) {
       if (v == "affine per camera") options.bundle.affine_scope = AffineScope::per_camera;
       if (v == "staged") options.bundle.staged_intrinsics = true;
       if (v == "cauchy") options.bundle.loss = RobustLoss::cauchy;
+      if (v == "K3 held" || v == "K3 P1 P2 held") {
+        // Held at the SfM's values: K3 = 0 as in the truth, P1, P2 at half the truth's.
+        EpochFreedom e1_freedom = EpochFreedom::all_free();
+        e1_freedom.fixed_intrinsics = {Intrinsic::k3};
+        if (v == "K3 P1 P2 held") e1_freedom.fixed_intrinsics = {Intrinsic::k3, Intrinsic::p1, Intrinsic::p2};
+        options.bundle.epochs = {e1_freedom, EpochFreedom::all_fixed()};
+      }
       if (v == "oracle e2 frames")
         for (std::size_t i = 0; i < e2.images.size(); ++i) reference.frames[i] = e2.epoch_frame(i);
       t0 = std::chrono::steady_clock::now();

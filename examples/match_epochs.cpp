@@ -97,6 +97,9 @@ const char* kUsage =
     "\n"
     "  --affine image|camera                  with --adjust: B1, B2 per image (default) or one pair\n"
     "                                         per camera (MicMac's Fraser calibration)\n"
+    "  --hold LIST                            with --adjust: epoch 1's intrinsics held at their values\n"
+    "                                         in cameras.txt, of f,cx,cy,K1,K2,K3,P1,P2 (e.g. K3 on a\n"
+    "                                         block too weak to tell it from K1, K2 and f)\n"
     "  --one-camera                           with --adjust: epoch 1's images share one camera (the\n"
     "                                         first image's values), e.g. one film camera whose SfM\n"
     "                                         gave each scan its own; without it images share a\n"
@@ -210,6 +213,23 @@ class PictureImages {
 };
 
 #if DIACHRON_MATCH_EPOCHS_ADJUST
+// "K3,P1,P2" -> the intrinsics (names as report.json gives them); "" -> none.
+std::vector<Intrinsic> parse_intrinsics(const std::string& list) {
+  static const char* const kNames[] = {"f", "cx", "cy", "K1", "K2", "K3", "P1", "P2"};
+  std::vector<Intrinsic> out;
+  std::size_t start = 0;
+  while (start < list.size()) {
+    const std::size_t comma = std::min(list.find(',', start), list.size());
+    const std::string name = list.substr(start, comma - start);
+    int k = 0;
+    while (k < 8 && name != kNames[k]) ++k;
+    DIACHRON_CHECK(k < 8, "--hold: unknown intrinsic '" << name << "' (f, cx, cy, K1, K2, K3, P1, P2)");
+    out.push_back(static_cast<Intrinsic>(k));
+    start = comma + 1;
+  }
+  return out;
+}
+
 // An epoch's name in adjusted/: its folder's name ("/data/1954/" -> "1954").
 std::string folder_name(std::string dir) {
   while (dir.size() > 1 && dir.back() == '/') dir.pop_back();
@@ -391,6 +411,7 @@ int main(int argc, char** argv) {
   PreciseMatchingOptions options;
   OverlappingPairsOptions overlap_options;
   bool quiet = false, pictures = true, adjust = false, fallback = true, one_camera = false;
+  std::string hold;  // --hold: epoch 1's intrinsics held, comma-separated names
   double min_overlap = 0.1;
   std::optional<int> cell;  // unset: the default cell
   GeoTiffReadOptions dsm_read;
@@ -432,6 +453,7 @@ int main(int argc, char** argv) {
       else if (a == "--adjust") adjust = true;
       else if (a == "--affine") affine = value();
       else if (a == "--one-camera") one_camera = true;
+      else if (a == "--hold") hold = value();
       else if (a == "--quiet") quiet = true;
       else if (a == "--help" || a == "-h") {
         std::cout << kUsage;
@@ -449,6 +471,10 @@ int main(int argc, char** argv) {
                    "unknown --affine '" << affine << "' (image or camera)");
     DIACHRON_CHECK(adjust || affine.empty(), "--affine needs --adjust");
     DIACHRON_CHECK(adjust || !one_camera, "--one-camera needs --adjust");
+    DIACHRON_CHECK(adjust || hold.empty(), "--hold needs --adjust");
+#if DIACHRON_MATCH_EPOCHS_ADJUST
+    const std::vector<Intrinsic> held = parse_intrinsics(hold);  // before any work: a typo fails fast
+#endif
     DIACHRON_CHECK(method == "patch" || method == "guided" || method == "correlation",
                    "unknown --method '" << method << "' (correlation, patch or guided)");
     if (measure == "intensity") options.correlation.match.measure = CorrelationMeasure::intensity;
@@ -592,6 +618,11 @@ int main(int argc, char** argv) {
       // 5. The combined adjustment, epoch 2 as the reference.
       CombinedAdjustmentOptions adjustment_options;
       if (affine == "camera") adjustment_options.bundle.affine_scope = AffineScope::per_camera;
+      if (!held.empty()) {
+        EpochFreedom epoch1 = EpochFreedom::all_free();
+        epoch1.fixed_intrinsics = held;
+        adjustment_options.bundle.epochs = {epoch1, EpochFreedom::all_fixed()};  // the stage's default, K's held
+      }
       const CombinedAdjustmentResult adjusted =
           combined_adjustment(combined_epoch(e1, one_camera), combined_epoch(e2, false),
                               epoch_pair_matches(precise.pairs), rough.epoch2_from_epoch1, adjustment_options);

@@ -397,3 +397,66 @@ TEST_CASE("bundle_adjust: Cauchy loss and unequal sigmas also recover the block"
   CHECK(epoch0_ground_rms(r.frames, b) < 1.0);
   CHECK(epoch0_ground_rms(b.estimated, b) > 5.0);
 }
+
+TEST_CASE("bundle_adjust: intrinsics held by EpochFreedom::fixed_intrinsics keep their values, the others adjust",
+          "[adjustment]") {
+  const test::Block b = test::make_block(/*seed=*/1, /*points=*/1000);
+  const BundleInput input = block_input(b);
+  BundleOptions options = reference_fixed();
+  options.epochs[0].fixed_intrinsics = {Intrinsic::k3, Intrinsic::p2, Intrinsic::p1, Intrinsic::k3};  // any order, repeats
+  const BundleResult held = bundle_adjust(input, options);
+  INFO(held.report.message);
+  REQUIRE(held.report.success);
+  const auto before = input.frames[0].camera().params(), after = held.frames[0].camera().params();
+  CHECK(after[2] == before[2]);  // K3
+  CHECK(after[3] == before[3]);  // P1
+  CHECK(after[4] == before[4]);  // P2
+  CHECK(after[0] != before[0]);  // K1 adjusted
+  CHECK(held.frames[0].camera().focal() != input.frames[0].camera().focal());
+  const CameraReport& camera = held.report.cameras[0];
+  REQUIRE(camera.values.size() == 8);
+  REQUIRE(camera.covariance.size() == 64);
+  for (std::size_t k = 0; k < 8; ++k) {
+    const bool fixed = k == 5 || k == 6 || k == 7;
+    INFO(camera.values[k].name);
+    CHECK(std::isnan(camera.values[k].sigma) == fixed);
+    if (fixed)
+      for (std::size_t j = 0; j < 8; ++j) CHECK(camera.covariance[k * 8 + j] == 0.0);
+  }
+  // A held value is really held: K1 kept at the SfM's half of the truth spoils the fit.
+  const BundleResult free = bundle_adjust(input, reference_fixed());
+  REQUIRE(free.report.success);
+  options.epochs[0].fixed_intrinsics = {Intrinsic::k1};
+  const BundleResult k1 = bundle_adjust(input, options);
+  REQUIRE(k1.report.success);
+  INFO("RMS free " << free.report.after.all.rms_px << " px, K1 held " << k1.report.after.all.rms_px << " px");
+  CHECK(k1.report.after.all.rms_px > 1.5 * free.report.after.all.rms_px);
+  // The truth has K3 = 0 and so has the SfM's camera: holding K3 there costs nothing.
+  options.epochs[0].fixed_intrinsics = {Intrinsic::k3};
+  const BundleResult k3 = bundle_adjust(input, options);
+  REQUIRE(k3.report.success);
+  CHECK(k3.frames[0].camera().params()[2] == 0.0);
+  CHECK(k3.report.after.all.rms_px == Approx(free.report.after.all.rms_px).epsilon(0.02));
+  CHECK(epoch0_ground_rms(k3.frames, b) < 0.5);
+
+  // Staged self-calibration keeps them too.
+  options.staged_intrinsics = true;
+  options.epochs[0].fixed_intrinsics = {Intrinsic::p1, Intrinsic::p2};
+  const BundleResult staged = bundle_adjust(input, options);
+  REQUIRE(staged.report.success);
+  CHECK(staged.frames[0].camera().params()[3] == before[3]);
+  CHECK(staged.frames[0].camera().params()[4] == before[4]);
+
+  // Every intrinsic held: the camera stays as it was, the poses still adjust.
+  options.staged_intrinsics = false;
+  options.epochs[0].fixed_intrinsics = {Intrinsic::f,  Intrinsic::cx, Intrinsic::cy, Intrinsic::k1,
+                                        Intrinsic::k2, Intrinsic::k3, Intrinsic::p1, Intrinsic::p2};
+  const BundleResult all = bundle_adjust(input, options);
+  REQUIRE(all.report.success);
+  CHECK(all.frames[0].camera().intrinsics()[0] == input.frames[0].camera().intrinsics()[0]);
+  CHECK(all.frames[0].camera().params()[0] == before[0]);
+  CHECK((all.frames[0].pose().centre() - input.frames[0].pose().centre()).norm() > 0.1);
+
+  options.epochs[0].fixed_intrinsics = {static_cast<Intrinsic>(8)};
+  CHECK_THROWS_WITH(bundle_adjust(input, options), Catch::Contains("not an intrinsic"));
+}

@@ -26,6 +26,10 @@ enum class AffineScope {
                ///< scanner and one film stock for a flight, 2 parameters instead of 2 per image
 };
 
+/// One intrinsic of a camera block [f, cx, cy, K1, K2, K3, P1, P2] (the order of
+/// fraser_camera_block), for EpochFreedom::fixed_intrinsics.
+enum class Intrinsic { f, cx, cy, k1, k2, k3, p1, p2 };
+
 /// Which parameter blocks of the images of one epoch the adjustment may change.
 /// The reference epoch with a known orientation keeps poses and camera fixed, like MicMac's
 /// FrozenPoses; an epoch to be co-registered and self-calibrated frees everything.
@@ -33,6 +37,11 @@ struct EpochFreedom {
   bool poses = true;   ///< the images' poses (angle-axis + centre)
   bool camera = true;  ///< the epoch's cameras [f, cx, cy, K1, K2, K3, P1, P2]
   bool affine = true;  ///< the images' affine parts [B1, B2] (per image or per camera: AffineScope)
+  /// With `camera` free, intrinsics held at their initial values, as photogrammetric packages let
+  /// one choose per parameter: e.g. {Intrinsic::k3} where the block cannot tell K3 from K1, K2 and
+  /// the focal length (near-nadir images from one height), so that it does not wander at the
+  /// image corners. A camera that serves several epochs holds what any of them holds.
+  std::vector<Intrinsic> fixed_intrinsics = {};
 
   /// Everything free: co-registration with self-calibration.
   static EpochFreedom all_free() { return {true, true, true}; }
@@ -91,6 +100,11 @@ struct BundleOptions {
     DIACHRON_CHECK(max_iterations >= 1, "BundleOptions::max_iterations must be >= 1");
     DIACHRON_CHECK(function_tolerance > 0.0, "BundleOptions::function_tolerance must be > 0");
     DIACHRON_CHECK(num_threads >= 1, "BundleOptions::num_threads must be >= 1");
+    for (std::size_t e = 0; e < epochs.size(); ++e)
+      for (Intrinsic k : epochs[e].fixed_intrinsics)
+        DIACHRON_CHECK(static_cast<int>(k) >= 0 && static_cast<int>(k) <= static_cast<int>(Intrinsic::p2),
+                       "BundleOptions::epochs[" << e << "].fixed_intrinsics holds " << static_cast<int>(k)
+                                                << ", not an intrinsic (0 f .. 7 P2)");
     triangulation.check();
   }
 };

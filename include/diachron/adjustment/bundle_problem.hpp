@@ -194,6 +194,18 @@ class BundleProblem {
     return any;
   }
 
+  /// Positions in camera c's block [f, cx, cy, K1-K3, P1, P2] that any epoch it serves holds at
+  /// their initial values (EpochFreedom::fixed_intrinsics), ascending, each once.
+  std::vector<int> held_intrinsics(std::size_t c) const {
+    std::vector<int> out;
+    for (std::size_t i = 0; i < image_count(); ++i)
+      if (static_cast<std::size_t>(camera_[i]) == c)
+        for (Intrinsic k : freedom(epoch_[i]).fixed_intrinsics) out.push_back(static_cast<int>(k));
+    std::sort(out.begin(), out.end());
+    out.erase(std::unique(out.begin(), out.end()), out.end());
+    return out;
+  }
+
   /// Whether image i's affine block is free: its epoch frees the affine part and, per camera,
   /// so does every epoch the camera serves.
   bool affine_free(std::size_t i) const { return affine_free_[affine_slot_[i]]; }
@@ -280,13 +292,15 @@ class BundleProblem {
     for (std::size_t c = 0; c < camera_count(); ++c) {
       double* block = cameras_[c].data();
       if (!problem.HasParameterBlock(block)) continue;
-      if (!camera_free(c)) {
+      std::vector<int> held = held_intrinsics(c);
+      if (stage == IntrinsicsStage::focal_principal_point) held.insert(held.end(), {3, 4, 5, 6, 7});
+      if (stage == IntrinsicsStage::radial) held.insert(held.end(), {6, 7});
+      std::sort(held.begin(), held.end());
+      held.erase(std::unique(held.begin(), held.end()), held.end());
+      if (!camera_free(c) || held.size() == static_cast<std::size_t>(kFraserCameraBlockSize))
         problem.SetParameterBlockConstant(block);
-      } else if (stage == IntrinsicsStage::focal_principal_point) {
-        problem.SetManifold(block, new ceres::SubsetManifold(kFraserCameraBlockSize, {3, 4, 5, 6, 7}));
-      } else if (stage == IntrinsicsStage::radial) {
-        problem.SetManifold(block, new ceres::SubsetManifold(kFraserCameraBlockSize, {6, 7}));
-      }
+      else if (!held.empty())
+        problem.SetManifold(block, new ceres::SubsetManifold(kFraserCameraBlockSize, held));
     }
     if (!any_pose_fixed && control_.empty()) fix_gauge(problem, image_used);
   }
