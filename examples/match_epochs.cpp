@@ -307,7 +307,9 @@ std::string adjustment_json(const CombinedAdjustmentResult& a, const std::vector
       o << (k ? ", " : "") << quoted(p.name) << ": {\"before\": " << json_number_or_null(p.before)
         << ", \"after\": " << json_number_or_null(p.after) << ", \"sigma\": " << json_number_or_null(p.sigma) << "}";
     }
-    o << "}, \"epoch\": " << (first < n1 ? 1 : 2) << ", \"images\": [";
+    o << "}, \"held\": [";
+    for (std::size_t k = 0; k < r.cameras[c].held.size(); ++k) o << (k ? ", " : "") << quoted(r.cameras[c].held[k]);
+    o << "], \"epoch\": " << (first < n1 ? 1 : 2) << ", \"images\": [";
     for (std::size_t i = 0, k = 0; i < a.image_camera.size(); ++i)
       if (a.image_camera[i] == r.cameras[c].camera) o << (k++ ? ", " : "") << quoted(names[i]);
     o << "], \"distortion_sigma\": ";

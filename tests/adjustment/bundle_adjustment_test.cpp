@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <limits>
+#include <string>
 #include <vector>
 
 #include <diachron/adjustment/bundle_adjustment.hpp>
@@ -414,6 +415,8 @@ TEST_CASE("bundle_adjust: intrinsics held by EpochFreedom::fixed_intrinsics keep
   CHECK(after[0] != before[0]);  // K1 adjusted
   CHECK(held.frames[0].camera().focal() != input.frames[0].camera().focal());
   const CameraReport& camera = held.report.cameras[0];
+  CHECK(camera.held == std::vector<std::string>{"K3", "P1", "P2"});
+  CHECK(held.report.cameras[1].held.empty());  // the fixed camera holds everything, none "held"
   REQUIRE(camera.values.size() == 8);
   REQUIRE(camera.covariance.size() == 64);
   for (std::size_t k = 0; k < 8; ++k) {

@@ -276,7 +276,10 @@ inline BundleResult bundle_adjust(const BundleInput& input, const BundleOptions&
       cam.covariance = block_covariance(problem.camera_block(c).data(), kFraserCameraBlockSize);
       std::vector<double> s = sigmas(cam.covariance, kFraserCameraBlockSize);
       // A held intrinsic has no standard deviation (its covariance rows are zero).
-      for (int k : problem.held_intrinsics(c)) s[static_cast<std::size_t>(k)] = std::numeric_limits<double>::quiet_NaN();
+      for (int k : problem.held_intrinsics(c)) {
+        s[static_cast<std::size_t>(k)] = std::numeric_limits<double>::quiet_NaN();
+        if (cam.free) cam.held.push_back(kCameraNames[k]);
+      }
       for (int k = 0; k < kFraserCameraBlockSize; ++k) {
         const auto uk = static_cast<std::size_t>(k);
         cam.values.push_back({kCameraNames[k], before_camera[uk], problem.camera_block(c)[uk], s[uk]});

@@ -52,6 +52,9 @@ struct CameraReport {
   int camera = 0;
   bool free = false;                      ///< estimated (else held fixed)
   std::vector<ParameterChange> values;    ///< f, cx, cy (px), K1, K2, K3, P1, P2
+  /// Of a free camera, the intrinsics held at their initial values ("K3", "P1", ...) by
+  /// EpochFreedom::fixed_intrinsics.
+  std::vector<std::string> held;
   /// A-posteriori covariance of the same 8 values, row-major 8 x 8 (ceres::Covariance scaled by
   /// sigma0^2; px^2 and the parameters' units); empty when the camera was fixed or the covariance
   /// is unavailable. eval/distortion_precision.hpp turns it into the distortion's 1-sigma over the
