@@ -215,14 +215,13 @@ class PictureImages {
 #if DIACHRON_MATCH_EPOCHS_ADJUST
 // "K3,P1,P2" -> the intrinsics (names as report.json gives them); "" -> none.
 std::vector<Intrinsic> parse_intrinsics(const std::string& list) {
-  static const char* const kNames[] = {"f", "cx", "cy", "K1", "K2", "K3", "P1", "P2"};
   std::vector<Intrinsic> out;
   std::size_t start = 0;
   while (start < list.size()) {
     const std::size_t comma = std::min(list.find(',', start), list.size());
     const std::string name = list.substr(start, comma - start);
     int k = 0;
-    while (k < 8 && name != kNames[k]) ++k;
+    while (k < 8 && name != intrinsic_name(static_cast<Intrinsic>(k))) ++k;
     DIACHRON_CHECK(k < 8, "--hold: unknown intrinsic '" << name << "' (f, cx, cy, K1, K2, K3, P1, P2)");
     out.push_back(static_cast<Intrinsic>(k));
     start = comma + 1;

@@ -263,7 +263,6 @@ inline BundleResult bundle_adjust(const BundleInput& input, const BundleOptions&
     for (int k = 0; k < size; ++k) out[static_cast<std::size_t>(k)] = std::sqrt(std::max(0.0, c[static_cast<std::size_t>(k * size + k)]));
     return out;
   };
-  static const char* const kCameraNames[kFraserCameraBlockSize] = {"f", "cx", "cy", "K1", "K2", "K3", "P1", "P2"};
   std::vector<bool> camera_done(problem.camera_count(), false);
   for (std::size_t i = 0; i < problem.image_count(); ++i) {
     const auto c = static_cast<std::size_t>(problem.camera_of(i));
@@ -278,11 +277,11 @@ inline BundleResult bundle_adjust(const BundleInput& input, const BundleOptions&
       // A held intrinsic has no standard deviation (its covariance rows are zero).
       for (int k : problem.held_intrinsics(c)) {
         s[static_cast<std::size_t>(k)] = std::numeric_limits<double>::quiet_NaN();
-        if (cam.free) cam.held.push_back(kCameraNames[k]);
+        if (cam.free) cam.held.push_back(intrinsic_name(static_cast<Intrinsic>(k)));
       }
       for (int k = 0; k < kFraserCameraBlockSize; ++k) {
         const auto uk = static_cast<std::size_t>(k);
-        cam.values.push_back({kCameraNames[k], before_camera[uk], problem.camera_block(c)[uk], s[uk]});
+        cam.values.push_back({intrinsic_name(static_cast<Intrinsic>(k)), before_camera[uk], problem.camera_block(c)[uk], s[uk]});
       }
       report.cameras.push_back(std::move(cam));
     }

@@ -30,6 +30,13 @@ enum class AffineScope {
 /// fraser_camera_block), for EpochFreedom::fixed_intrinsics.
 enum class Intrinsic { f, cx, cy, k1, k2, k3, p1, p2 };
 
+/// "f", "cx", "cy", "K1", "K2", "K3", "P1", "P2": the names reports and programs use.
+inline const char* intrinsic_name(Intrinsic k) {
+  static const char* const kNames[] = {"f", "cx", "cy", "K1", "K2", "K3", "P1", "P2"};
+  const int i = static_cast<int>(k);
+  return i >= 0 && i <= static_cast<int>(Intrinsic::p2) ? kNames[i] : "?";
+}
+
 /// Which parameter blocks of the images of one epoch the adjustment may change.
 /// The reference epoch with a known orientation keeps poses and camera fixed, like MicMac's
 /// FrozenPoses; an epoch to be co-registered and self-calibrated frees everything.
