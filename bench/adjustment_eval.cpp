@@ -17,6 +17,7 @@
 //   staged       the intrinsics freed in three solves as Tapas/Campari do (f and principal point,
 //                then + K1-K3, then all; BundleOptions::staged_intrinsics)
 //   cauchy       Cauchy's loss instead of Huber's (same 1 px scale): large residuals weigh less
+//   cauchy per camera   both of the two above
 //   shuffled errors   the truth's matches at the same master points, each given the error vector of
 //                another real match (a seeded shuffle): the matches' error without its structure
 //   K3 held      epoch 1's K3 held at the SfM's value (EpochFreedom::fixed_intrinsics); the scenes'
@@ -62,8 +63,9 @@
 // default 1 px, 0 = half the window).
 // --inter-sigma PX: the inter-epoch weight of the variant "inter sigma X" (px, > 0; default 3).
 //
-// Prints one line per seed and variant on stderr and a Markdown table (medians over the seeds) on
-// stdout. Not a test: docs/adjustment.md holds its output.
+// Prints one line per seed and variant on stderr (with the solve's final Ceres cost, sigma0 and
+// observations, from which nested variants can be compared by an F-test) and a Markdown table
+// (medians over the seeds) on stdout. Not a test: docs/adjustment.md holds its output.
 
 #include <algorithm>
 #include <array>
@@ -142,7 +144,7 @@ struct Outcome {
 
 const char* const kVariants[] = {"rough",          "intra only",   "no affine",         "full",
                                  "e2 camera free", "both free",    "oracle e2 frames", "oracle matches",
-                                 "inter sigma 1",  "inter sigma X", "affine per camera", "staged", "cauchy", "shuffled errors",
+                                 "inter sigma 1",  "inter sigma X", "affine per camera", "staged", "cauchy", "cauchy per camera", "shuffled errors",
                                  "peak weighted", "peak weighted X", "K3 held", "K3 P1 P2 held", "colmap"};
 
 // Check points of epoch 1 triangulated with `frames` (epoch-2 frame), errors in world metres.
@@ -534,7 +536,8 @@ int run(int argc, char** argv) {
       if (v == "inter sigma X" || v == "peak weighted X") options.bundle.inter_epoch_sigma_px = inter_sigma;
       if (v == "affine per camera") options.bundle.affine_scope = AffineScope::per_camera;
       if (v == "staged") options.bundle.staged_intrinsics = true;
-      if (v == "cauchy") options.bundle.loss = RobustLoss::cauchy;
+      if (v == "cauchy" || v == "cauchy per camera") options.bundle.loss = RobustLoss::cauchy;
+      if (v == "cauchy per camera") options.bundle.affine_scope = AffineScope::per_camera;
       if (v == "K3 held" || v == "K3 P1 P2 held") {
         // Held at the SfM's values: K3 = 0 as in the truth, P1, P2 at half the truth's.
         EpochFreedom e1_freedom = EpochFreedom::all_free();
@@ -569,9 +572,10 @@ int run(int argc, char** argv) {
         o.note = r.report.message;
       }
       results[v].push_back(o);
-      std::fprintf(stderr, "  %s: %zu tracks (%zu inter-epoch), reprojection RMS %.2f -> %.2f px, sigma0 %.2f\n", variant,
+      std::fprintf(stderr, "  %s: %zu tracks (%zu inter-epoch), reprojection RMS %.2f -> %.2f px, sigma0 %.4f, cost %.3f, obs %zu rejected %zu\n", variant,
                    r.report.tracks_used, r.report.inter_epoch_tracks, r.report.before.all.rms_px, r.report.after.all.rms_px,
-                   r.report.sigma0);
+                   r.report.sigma0, r.report.solves.empty() ? -1.0 : r.report.solves.back().final_cost,
+                   r.report.observations_used, r.report.observations_rejected);
       if (v != "full") continue;
       full_tracks = r.track_list;
       for (const SolveSummary& solve : r.report.solves)
