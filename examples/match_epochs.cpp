@@ -71,8 +71,9 @@ const char* kUsage =
     "                                         DSM + Helmert prediction (default), one-to-one transfer-\n"
     "                                         guided tiles, or keypoints guided by DSM + Helmert\n"
     "  --measure orientation|gradient|intensity  correlation's similarity (default orientation)\n"
-    "  --cell PX                              correlation: one master point per PX x PX cell (default 6;\n"
-    "                                         time per pair grows as 1 / PX^2: large scans want more)\n"
+    "  --cell PX                              correlation: one master point per PX x PX cell (default 6,\n"
+    "                                         coarser on images of more than 60000 such cells: 12 on\n"
+    "                                         3200 x 2400 px; time per pair grows as 1 / PX^2)\n"
     "  --matcher sift|rootsift|akaze|xfeat    patch/guided features (default rootsift; guided:\n"
     "                                         sift|rootsift|xfeat)\n"
     "  --model PATH                           XFeat ONNX file (with --matcher xfeat)\n"
@@ -487,6 +488,7 @@ int main(int argc, char** argv) {
     if (cell) {
       DIACHRON_CHECK(*cell >= 2, "--cell wants a side of at least 2 px, got " << *cell);
       options.correlation.interest.cell_px = *cell;
+      options.correlation.max_points_per_image = 0;  // the cell asked for, whatever the image's size
     }
     DIACHRON_CHECK(matcher_name == "sift" || matcher_name == "rootsift" || matcher_name == "akaze" ||
                        matcher_name == "xfeat",

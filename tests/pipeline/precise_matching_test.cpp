@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <map>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <catch2/catch.hpp>
@@ -186,6 +187,25 @@ TEST_CASE("correlation precise matching: correct matches on every pair, whatever
   const PreciseMatchingReport serial = precise_matching_correlation(epoch_view(f, 0), epoch_view(f, 1),
                                                                     f.scene.epoch2_from_epoch1(), f.pairs, options);
   CHECK(same_matches(report, serial));
+
+  {
+    // A bound on the points per image coarsens the cell of a large master image: a bound of a
+    // hundredth of its pixels gives 10 px cells from the default 6, and the same matches as 10 px
+    // cells asked for directly.
+    const Raster<std::uint8_t>& image1 = f.scene.epochs[0].images[0].pixels;
+    PreciseMatchingOptions bounded = options;
+    bounded.correlation.interest.cell_px = 6;
+    bounded.correlation.max_points_per_image =
+        static_cast<std::size_t>(image1.width()) * static_cast<std::size_t>(image1.height()) / 100;
+    REQUIRE(effective_cell_px(bounded.correlation, image1.width(), image1.height()) == 10);
+    const PreciseMatchingReport coarse = precise_matching_correlation(epoch_view(f, 0), epoch_view(f, 1),
+                                                                      f.scene.epoch2_from_epoch1(), f.pairs, bounded);
+    CHECK(same_matches(report, coarse));
+    for (const PrecisePairReport& p : coarse.pairs) {
+      INFO(p.message);
+      CHECK(p.message.find("(10 px cells)") != std::string::npos);
+    }
+  }
   PreciseMatchingOptions bad;
   bad.correlation.ground_threshold_gsd = 0.0;
   CHECK_THROWS_AS(precise_matching_correlation(epoch_view(f, 0), epoch_view(f, 1), f.scene.epoch2_from_epoch1(),
@@ -234,6 +254,36 @@ TEST_CASE("correlation precise matching: correct matches on every pair, whatever
     CHECK_THROWS_WITH(precise_matching_correlation(epoch_view(f, 0), epoch_view(f, 1), helmert, f.pairs, wrong),
                       Catch::Contains("relief_radius_px must be finite and > 0"));
   }
+}
+
+TEST_CASE("effective_cell_px: the smallest cell that keeps an image within the point bound", "[pipeline][precise]") {
+  // Oracle: the smallest integer side c >= cell_px with width * height / c^2 <= the bound.
+  const auto oracle = [](int cell, std::size_t bound, int w, int h) {
+    if (bound == 0) return cell;
+    int c = cell;
+    while (static_cast<double>(w) * h / (static_cast<double>(c) * c) > static_cast<double>(bound)) ++c;
+    return c;
+  };
+  PreciseCorrelationOptions o;
+  CHECK(o.interest.cell_px == 6);
+  CHECK(effective_cell_px(o, 1600, 1200) == 6);   // the scenes the defaults were measured on
+  CHECK(effective_cell_px(o, 3200, 2400) == 12);
+  CHECK(effective_cell_px(o, 12000, 12000) == 49);
+  for (const std::size_t bound : {std::size_t{0}, std::size_t{1}, std::size_t{100}, std::size_t{6000}, std::size_t{60000},
+                                  std::size_t{250000}})
+    for (const int cell : {2, 6, 17})
+      for (const auto& [w, h] : {std::pair{1, 1}, std::pair{400, 300}, std::pair{600, 600}, std::pair{1600, 1200},
+                                 std::pair{4801, 3599}, std::pair{20000, 15000}}) {
+        o.interest.cell_px = cell;
+        o.max_points_per_image = bound;
+        INFO(w << " x " << h << ", cell " << cell << ", bound " << bound);
+        CHECK(effective_cell_px(o, w, h) == oracle(cell, bound, w, h));
+      }
+  // An exact square: 600 x 600 px over 10000 points is 6 px exactly, not 7.
+  o.interest.cell_px = 2;
+  o.max_points_per_image = 10000;
+  CHECK(effective_cell_px(o, 600, 600) == 6);
+  CHECK_THROWS_AS(effective_cell_px(o, 0, 10), Error);
 }
 
 TEST_CASE("precise matching: no pair is an answer, bad input an error", "[pipeline][precise]") {

@@ -73,6 +73,14 @@ struct PreciseCorrelationOptions {
     o.cell_px = 6;
     return o;
   }();
+  /// At most about this many master points per image (0: no bound). On a master image of more than
+  /// max_points_per_image cells of interest.cell_px, the cell grows to
+  /// ceil(sqrt(width * height / max_points_per_image)) px (effective_cell_px), so that the work per
+  /// pair of a fine scan stays about that of a 1600 x 1200 image at 6 px (53000 cells): a
+  /// 3200 x 2400 image gets 12 px cells, a 12000 x 12000 scan 49 px, instead of 4 million points.
+  /// The cell depends on the master image only, so every pair of one master image has the same
+  /// points and the adjustment's tracks join them.
+  std::size_t max_points_per_image = 60000;
   /// The correlation search: orientation measure, 21 px window, +-12 master px.
   CorrelationMatchOptions match{};
   /// A second pass around predictions corrected by the ground filter's Helmert on the first pass's
@@ -115,6 +123,19 @@ struct PreciseCorrelationOptions {
                        << ground_threshold_gsd);
   }
 };
+
+/// The side of the grid cell, master px, that precise_match_pair_correlation uses on a master image
+/// of width x height px: options.interest.cell_px, or larger so that the image has at most
+/// options.max_points_per_image cells.
+inline int effective_cell_px(const PreciseCorrelationOptions& options, int width, int height) {
+  DIACHRON_CHECK(width > 0 && height > 0, "effective_cell_px: an empty image (" << width << " x " << height << ")");
+  int cell = options.interest.cell_px;
+  if (options.max_points_per_image == 0) return cell;
+  const double area = static_cast<double>(width) * static_cast<double>(height);
+  const double side = std::sqrt(area / static_cast<double>(options.max_points_per_image));
+  // ceil, so that the bound holds; the small tolerance keeps an exact square from rounding up.
+  return std::max(cell, static_cast<int>(std::ceil(side - 1e-9)));
+}
 
 /// Options of precise matching. Defaults: the paper's and MicMac's, except where
 /// docs/precise-matching.md measured better (each field says so).
@@ -366,6 +387,7 @@ PrecisePairReport precise_match_pair_correlation(const PreciseImage<MasterFrame>
   filters.ground.threshold_gsd = co.ground_threshold_gsd;
   filters.use_ncc = options.use_ncc && co.use_ncc;
   GridInterestOptions interest = co.interest;
+  interest.cell_px = effective_cell_px(co, master.pixels->width(), master.pixels->height());
   // The window must fit whole around a point, so points keep the correlation window's margin.
   interest.border_px = std::max(interest.border_px, co.match.window_px / 2 + 2);
   std::vector<Eigen::Vector2d> points;
@@ -411,7 +433,8 @@ PrecisePairReport precise_match_pair_correlation(const PreciseImage<MasterFrame>
   }
   report.seconds.tentative = detail::precise_seconds_since(start);
   filter_precise_pair(report, master, master_dsm, secondary, secondary_dsm, epoch2_from_epoch1, filters);
-  report.message += "; " + std::to_string(points.size()) + " interest points" + relief_note + ", " + second_pass;
+  report.message += "; " + std::to_string(points.size()) + " interest points (" + std::to_string(interest.cell_px) +
+                    " px cells)" + relief_note + ", " + second_pass;
   report.seconds.total = detail::precise_seconds_since(start);
   return report;
 }
