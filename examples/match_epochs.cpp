@@ -74,6 +74,8 @@ const char* kUsage =
     "  --cell PX                              correlation: one master point per PX x PX cell (default 6,\n"
     "                                         coarser on images of more than 60000 such cells: 12 on\n"
     "                                         3200 x 2400 px; time per pair grows as 1 / PX^2)\n"
+    "  --max-points N                         correlation: the cell grows from 6 px on images of more\n"
+    "                                         than N cells (default 60000, about 1600 x 1200 px at 6 px)\n"
     "  --matcher sift|rootsift|akaze|xfeat    patch/guided features (default rootsift; guided:\n"
     "                                         sift|rootsift|xfeat)\n"
     "  --model PATH                           XFeat ONNX file (with --matcher xfeat)\n"
@@ -416,6 +418,7 @@ int main(int argc, char** argv) {
   std::string hold;  // --hold: epoch 1's intrinsics held, comma-separated names
   double min_overlap = 0.1;
   std::optional<int> cell;  // unset: the default cell
+  std::optional<long long> max_points;  // unset: PreciseCorrelationOptions' bound
   GeoTiffReadOptions dsm_read;
   std::size_t threads = 0;
 #if DIACHRON_MATCH_EPOCHS_ADJUST
@@ -435,6 +438,7 @@ int main(int argc, char** argv) {
       else if (a == "--matcher") matcher_name = value();
       else if (a == "--measure") measure = value();
       else if (a == "--cell") cell = std::stoi(value());
+      else if (a == "--max-points") max_points = std::stoll(value());
       else if (a == "--model") model_path = value();
       else if (a == "--min-overlap") min_overlap = std::stod(value());
       else if (a == "--nodata") {
@@ -489,6 +493,12 @@ int main(int argc, char** argv) {
       DIACHRON_CHECK(*cell >= 2, "--cell wants a side of at least 2 px, got " << *cell);
       options.correlation.interest.cell_px = *cell;
       options.correlation.max_points_per_image = 0;  // the cell asked for, whatever the image's size
+    }
+    DIACHRON_CHECK(!max_points || method == "correlation", "--max-points goes with --method correlation");
+    DIACHRON_CHECK(!max_points || !cell, "--cell and --max-points both set the cell: give one of them");
+    if (max_points) {
+      DIACHRON_CHECK(*max_points >= 1, "--max-points wants at least 1 point per image, got " << *max_points);
+      options.correlation.max_points_per_image = static_cast<std::size_t>(*max_points);
     }
     DIACHRON_CHECK(matcher_name == "sift" || matcher_name == "rootsift" || matcher_name == "akaze" ||
                        matcher_name == "xfeat",

@@ -2,8 +2,9 @@
 # first two images renamed to epoch 1's names (both epochs numbered alike), the other two moved into
 # a folder (images/scan/..., a COLMAP name with a '/'). The program must finish (exit 0), write every
 # tie point under the documented e1_ / e2_ names, and list the names in homol_names.txt; the inputs
-# (renamed here, before the run) stay as they were. A sparse point grid (--cell 16) keeps it short:
-# the names are the point, not the number of matches.
+# (renamed here, before the run) stay as they were. A sparse point grid keeps it short: the names are
+# the point, not the number of matches. The grid is asked for as a bound of 1875 points per image,
+# which on 800 x 600 px is 16 px cells exactly; report.json must say that cell.
 #   cmake -DMAKE_SCENE=... -DMATCH_EPOCHS=... -DWORK=... -P match_epochs_names.cmake
 include("${CMAKE_CURRENT_LIST_DIR}/scene_folders.cmake")
 fresh_scene("${WORK}" --image-size 800x600 --images-per-epoch 2x2 --seed 1)
@@ -20,7 +21,7 @@ foreach(pair "e2_r0_c0.png=e1_r0_c0.png" "e2_r0_c1.png=e1_r0_c1.png" "e2_r1_c0.p
 endforeach()
 file(WRITE "${e2}/images.txt" "${images}")
 folder_fingerprint("${WORK}/scene" before)
-execute_process(COMMAND "${MATCH_EPOCHS}" "${WORK}/scene/e1" "${e2}" --out "${WORK}/out" --no-pictures --cell 16
+execute_process(COMMAND "${MATCH_EPOCHS}" "${WORK}/scene/e1" "${e2}" --out "${WORK}/out" --no-pictures --max-points 1875
                 RESULT_VARIABLE status OUTPUT_VARIABLE out ERROR_VARIABLE err)
 if(NOT status EQUAL 0)
   message(FATAL_ERROR "match_epochs exited with ${status}, expected 0\n${out}\n${err}")
@@ -47,6 +48,16 @@ foreach(f IN LISTS files)
   string(REGEX REPLACE "^Pastis([^/]+)/([^/]+)\\.txt$" "Pastis\\2/\\1.txt" back "${f}")
   if(NOT EXISTS "${WORK}/out/Homol/${back}")
     message(FATAL_ERROR "Homol/${f} has no file the other way round")
+  endif()
+endforeach()
+file(READ "${WORK}/out/report.json" report)
+string(REGEX MATCHALL "interest points \\([0-9]+ px cells\\)" cells "${report}")
+if(NOT cells)
+  message(FATAL_ERROR "report.json names no cell")
+endif()
+foreach(c IN LISTS cells)
+  if(NOT c STREQUAL "interest points (16 px cells)")
+    message(FATAL_ERROR "--max-points 1875 on 800 x 600 px images gave '${c}', expected 16 px cells")
   endif()
 endforeach()
 folder_fingerprint("${WORK}/scene" after)

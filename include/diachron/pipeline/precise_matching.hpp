@@ -129,7 +129,7 @@ struct PreciseCorrelationOptions {
 /// options.max_points_per_image cells.
 inline int effective_cell_px(const PreciseCorrelationOptions& options, int width, int height) {
   DIACHRON_CHECK(width > 0 && height > 0, "effective_cell_px: an empty image (" << width << " x " << height << ")");
-  int cell = options.interest.cell_px;
+  const int cell = options.interest.cell_px;
   if (options.max_points_per_image == 0) return cell;
   const double area = static_cast<double>(width) * static_cast<double>(height);
   const double side = std::sqrt(area / static_cast<double>(options.max_points_per_image));
