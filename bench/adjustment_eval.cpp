@@ -428,10 +428,7 @@ int run(int argc, char** argv) {
     const PreciseEpoch<Frame<FraserAffine>> p2{frames2, [&e2](std::size_t i) { return e2.images[i].pixels; }, &e2.dsm};
     PreciseMatchingOptions precise_options;
     precise_options.correlation.max_relief_gsd = max_relief;
-    if (cell > 0) {
-      precise_options.correlation.interest.cell_px = cell;
-      precise_options.correlation.max_points_per_image = 0;
-    }
+    if (cell > 0) precise_options.correlation.use_fixed_cell(cell);
     if (affine_step >= 0.0) precise_options.correlation.match.affine_step_px = affine_step;
     precise_options.threads = threads;
     t0 = std::chrono::steady_clock::now();

@@ -266,10 +266,7 @@ int main(int argc, char** argv) {
     if (args.corr_radius > 0) options.correlation.match.search_radius_px = args.corr_radius;
     if (args.corr_window > 0) options.correlation.match.window_px = args.corr_window;
     if (args.second_pass >= 0) options.correlation.second_pass_radius_px = args.second_pass;
-    if (args.cell > 0) {
-      options.correlation.interest.cell_px = args.cell;
-      options.correlation.max_points_per_image = 0;
-    }
+    if (args.cell > 0) options.correlation.use_fixed_cell(args.cell);
     if (std::isfinite(args.min_score)) options.correlation.match.min_score = args.min_score;
     if (std::isfinite(args.min_margin)) options.correlation.match.min_margin = args.min_margin;
     // --ground-gsd sets the correlation method's threshold (the descriptor methods keep the paper's).

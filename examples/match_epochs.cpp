@@ -491,8 +491,7 @@ int main(int argc, char** argv) {
     DIACHRON_CHECK(!cell || method == "correlation", "--cell goes with --method correlation");
     if (cell) {
       DIACHRON_CHECK(*cell >= 2, "--cell wants a side of at least 2 px, got " << *cell);
-      options.correlation.interest.cell_px = *cell;
-      options.correlation.max_points_per_image = 0;  // the cell asked for, whatever the image's size
+      options.correlation.use_fixed_cell(*cell);
     }
     DIACHRON_CHECK(!max_points || method == "correlation", "--max-points goes with --method correlation");
     DIACHRON_CHECK(!max_points || !cell, "--cell and --max-points both set the cell: give one of them");

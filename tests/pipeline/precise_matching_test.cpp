@@ -284,6 +284,11 @@ TEST_CASE("effective_cell_px: the smallest cell that keeps an image within the p
   o.max_points_per_image = 10000;
   CHECK(effective_cell_px(o, 600, 600) == 6);
   CHECK_THROWS_AS(effective_cell_px(o, 0, 10), Error);
+  // A cell asked for is kept whatever the size, finer than the bound's too.
+  PreciseCorrelationOptions fixed;
+  fixed.use_fixed_cell(4);
+  CHECK(effective_cell_px(fixed, 1600, 1200) == 4);
+  CHECK(effective_cell_px(fixed, 12000, 12000) == 4);
 }
 
 TEST_CASE("precise matching: no pair is an answer, bad input an error", "[pipeline][precise]") {

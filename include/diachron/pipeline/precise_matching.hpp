@@ -67,7 +67,9 @@ struct PreciseCorrelationOptions {
   /// 1600 x 1200 image, of which those in the overlap are correlated). Their 21 px windows overlap,
   /// so neighbouring matches are not independent, but each is a tie point checked on its own. Denser
   /// cells give more correct matches per pair at proportional cost (decades scenes, 30 pairs, median
-  /// correct final matches per pair: 10 px cells 67, 8 px 95, 6 px 144).
+  /// correct final matches per pair: 10 px cells 67, 8 px 95, 6 px 144). max_points_per_image may
+  /// coarsen the cell on a large image, also below a cell set here: use_fixed_cell() asks for one
+  /// whatever the image's size.
   GridInterestOptions interest = [] {
     GridInterestOptions o;
     o.cell_px = 6;
@@ -106,6 +108,13 @@ struct PreciseCorrelationOptions {
   /// Radius of that disc, master px (> 0): the correlation window's size reaches the shadows cast
   /// into a window by what stands just outside it.
   double relief_radius_px = 21.0;
+
+  /// Cells of px master px on every image, whatever its size (the point bound off): what the
+  /// programs' --cell asks for.
+  void use_fixed_cell(int px) {
+    interest.cell_px = px;
+    max_points_per_image = 0;
+  }
 
   /// Throws diachron::Error naming the first invalid field.
   void check() const {
