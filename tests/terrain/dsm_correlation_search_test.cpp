@@ -129,6 +129,31 @@ TEST_CASE("DsmCorrelationSearch: partial overlap and holes on both sides", "[ter
   CHECK(max_error_px(c, r) < 2.0);
 }
 
+TEST_CASE("DsmCorrelationSearch: the result does not depend on the threads", "[terrain]") {
+  const Terrain terrain(23);
+  const Case c = make_case(terrain, terrain, 0.8, -64.0, {112.0, 60.0}, 70, 60, true);
+  diachron::DsmCorrelationSearchOptions o = quick_options();
+  o.threads = 1;
+  const diachron::DsmCorrelationResult one = diachron::dsm_correlation_search(c.master, c.secondary, o);
+  for (std::size_t threads : {std::size_t{2}, std::size_t{3}, std::size_t{0}}) {
+    o.threads = threads;
+    const diachron::DsmCorrelationResult many = diachron::dsm_correlation_search(c.master, c.secondary, o);
+    INFO("threads " << threads);
+    CHECK(many.success == one.success);
+    CHECK(many.hypotheses == one.hypotheses);
+    // Bit for bit: each scale and candidate is computed alone, and gathered in a fixed order.
+    CHECK(many.scale == one.scale);
+    CHECK(many.angle == one.angle);
+    CHECK(many.translation == one.translation);
+    CHECK(many.score == one.score);
+    CHECK(many.strength == one.strength);
+    CHECK(many.runner_up_strength == one.runner_up_strength);
+    CHECK(many.height_gain == one.height_gain);
+    CHECK(many.message == one.message);
+  }
+  CHECK(one.success);
+}
+
 TEST_CASE("DsmCorrelationSearch: CorrelationStrength::samples counts pixels, share counts the footprint", "[terrain]") {
   using diachron::detail::correlation_strength;
   // Share: a whole small template and a whole large one weigh the same; samples: the large one more.

@@ -174,7 +174,8 @@ struct RoughCoregistrationOptions {
   /// the stretch and Wallis images (those 1.2 to 1.9 cells off).
   double max_rms_3d_cells = std::numeric_limits<double>::infinity();
 
-  /// Worker threads over tile pairs (0 = all cores). Results do not depend on it.
+  /// Worker threads over tile pairs and the correlation fallback's hypotheses (0 = all cores; it
+  /// replaces `correlation_search.threads`). Results do not depend on it.
   std::size_t threads = 0;
   /// Progress over tile pairs, per rotation hypothesis. May be empty.
   ProgressCallback progress;
@@ -644,7 +645,9 @@ inline void correlation_fallback(const Dsm& master, const Dsm& secondary, const 
                                  RoughCoregistrationReport& report) {
   const auto t0 = std::chrono::steady_clock::now();
   report.correlation_ran = true;
-  report.correlation = dsm_correlation_search(master, secondary, options.correlation_search);
+  DsmCorrelationSearchOptions search = options.correlation_search;
+  search.threads = options.threads;
+  report.correlation = dsm_correlation_search(master, secondary, search);
   const auto fail = [&](const std::string& why) {
     report.message += "; correlation fallback: " + why;
     report.seconds.correlation = seconds_since(t0);

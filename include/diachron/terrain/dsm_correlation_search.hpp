@@ -17,6 +17,7 @@
 /// when `mirrored` (the two geotransforms have determinants of opposite sign), identity otherwise.
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstddef>
@@ -29,6 +30,7 @@
 #include <Eigen/LU>
 
 #include <diachron/core/error.hpp>
+#include <diachron/core/parallel.hpp>
 #include <diachron/core/raster.hpp>
 #include <diachron/core/types.hpp>
 #include <diachron/terrain/dsm.hpp>
@@ -110,6 +112,9 @@ struct DsmCorrelationSearchOptions {
   double max_gain_factor = 1.5;
   /// How a peak's overlap weighs its ZNCC (see CorrelationStrength, and `signal` for the measurement).
   CorrelationStrength strength = CorrelationStrength::samples;
+  /// Worker threads over the coarse level's scales and over the candidates (0 = all cores). The
+  /// result does not depend on it. rough_coregistration() sets it to its own `threads`.
+  std::size_t threads = 0;
 
   void check() const {
     DIACHRON_CHECK(max_gain_factor > 1.0, "max_gain_factor must be > 1, got " << max_gain_factor);
@@ -421,7 +426,7 @@ inline DsmCorrelationResult dsm_correlation_search(const Dsm& master, const Dsm&
   // Correlates one hypothesis at cell g: over every shift by FFT (`ncc`), or, with `predicted`,
   // directly at the shifts within `radius` working pixels of it (refinement: a few dozen shifts
   // cost less than the FFTs, and the peak cannot jump to another place).
-  std::size_t hypotheses = 0;
+  std::atomic<std::size_t> hypotheses{0};
   const auto correlate = [&](MaskedNcc* ncc, const std::vector<Raster<float>>& fixed, std::size_t fixed_valid,
                              detail::CorrelationHypothesis& h, double g, const Eigen::Vector2d* predicted,
                              int radius) {
@@ -516,15 +521,18 @@ inline DsmCorrelationResult dsm_correlation_search(const Dsm& master, const Dsm&
   const int half_scales = static_cast<int>(std::ceil(std::log(options.frame_scale_range) / std::log(step) - 1e-9));
   const int angles = std::max(1, static_cast<int>(std::lround(360.0 / options.angle_step_deg)));
   const double angle_step = 2.0 * kPi / angles;
-  std::vector<detail::CorrelationHypothesis> coarse;
+  // Each scale has its own working raster and FFTs: the scales run in parallel, each into its own
+  // slot, gathered in scale order so that the result does not depend on the threads.
+  std::vector<std::vector<detail::CorrelationHypothesis>> per_scale(static_cast<std::size_t>(2 * half_scales + 1));
   auto t0 = std::chrono::steady_clock::now();
-  for (int si = -half_scales; si <= half_scales; ++si) {
+  parallel_for(per_scale.size(), options.threads, [&](std::size_t slot) {
+    const int si = static_cast<int>(slot) - half_scales;
     const double ratio = r0 * std::pow(step, si);
     double g = 0.0, finest = 0.0;
     cells(ratio, g, finest);
     const std::vector<Raster<float>> fixed = working_fixed(ratio, g);
     const std::size_t fixed_valid = detail::count_valid(fixed[0]);
-    if (fixed_valid < 4) continue;
+    if (fixed_valid < 4) return;
     // Any rotation of the template fits in a square of the master's diagonal.
     const int diag = static_cast<int>(std::ceil(std::hypot(mw, mh) * ratio / g)) + 3;
     MaskedNcc ncc(fixed, diag, diag);
@@ -535,12 +543,14 @@ inline DsmCorrelationResult dsm_correlation_search(const Dsm& master, const Dsm&
       h.scale_index = si;
       h.angle_index = ai;
       correlate(&ncc, fixed, fixed_valid, h, g, nullptr, 0);
-      if (std::isfinite(h.score)) coarse.push_back(h);
+      if (std::isfinite(h.score)) per_scale[slot].push_back(h);
     }
-  }
+  });
+  std::vector<detail::CorrelationHypothesis> coarse;
+  for (const auto& hs : per_scale) coarse.insert(coarse.end(), hs.begin(), hs.end());
   result.seconds.coarse = since(t0);
   if (coarse.empty()) {
-    result.hypotheses = hypotheses;
+    result.hypotheses = hypotheses.load();
     result.message = "no hypothesis gave an overlap large enough to correlate";
     result.seconds.total = since(start);
     return result;
@@ -631,17 +641,16 @@ inline DsmCorrelationResult dsm_correlation_search(const Dsm& master, const Dsm&
       h = best;
     }
   };
-  std::vector<Track> tracks;
-  for (std::size_t c : picked) {
-    Track tr;
-    tr.h = coarse[c];
+  std::vector<Track> tracks(picked.size());
+  parallel_for(picked.size(), options.threads, [&](std::size_t i) {
+    Track& tr = tracks[i];
+    tr.h = coarse[picked[i]];
     tr.a_step = angle_step;
     tr.s_step = std::log(step);
     cells(tr.h.ratio, tr.g_coarse, tr.finest);
     tr.g = tr.g_coarse;
     while (tr.g > tr.finest * (1.0 + 1e-9) && !tr.stuck) refine_level(tr);
-    tracks.push_back(tr);
-  }
+  });
   std::size_t win = 0;
   for (std::size_t i = 1; i < tracks.size(); ++i)
     if (tracks[i].h.strength > tracks[win].h.strength) win = i;
@@ -652,7 +661,7 @@ inline DsmCorrelationResult dsm_correlation_search(const Dsm& master, const Dsm&
     result.levels = tr.level;
   }
   result.seconds.refine = since(t0);
-  result.hypotheses = hypotheses;
+  result.hypotheses = hypotheses.load();
   const detail::CorrelationHypothesis& w = tracks[win].h;
   const detail::CorrelationHypothesis& w_coarse = coarse[picked[win]];
   double runner = -1.0, runner_strength = -std::numeric_limits<double>::infinity();
