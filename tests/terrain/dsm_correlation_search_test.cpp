@@ -3,10 +3,13 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <map>
+#include <string>
 #include <utility>
 #include <vector>
 
 #include <diachron/core/error.hpp>
+#include <diachron/core/progress.hpp>
 #include <diachron/terrain/dsm_correlation_search.hpp>
 
 namespace {
@@ -152,6 +155,29 @@ TEST_CASE("DsmCorrelationSearch: the result does not depend on the threads", "[t
     CHECK(many.message == one.message);
   }
   CHECK(one.success);
+}
+
+TEST_CASE("DsmCorrelationSearch: progress counts the scales, then the candidates", "[terrain]") {
+  const Terrain terrain(11);
+  const Case c = make_case(terrain, terrain, 1.4, 127.0, {42.0, 38.0}, 32, 28, false, 84);
+  diachron::DsmCorrelationSearchOptions o = quick_options();
+  o.threads = 2;
+  std::vector<diachron::ProgressEvent> events;
+  o.progress = [&](const diachron::ProgressEvent& e) { events.push_back(e); };  // the library serialises the calls
+  const diachron::DsmCorrelationResult r = diachron::dsm_correlation_search(c.master, c.secondary, o);
+  REQUIRE(r.success);
+  std::map<std::string, std::vector<std::size_t>> done;
+  std::vector<std::string> order;
+  for (const auto& e : events) {
+    if (done.find(e.stage) == done.end()) order.push_back(e.stage);
+    done[e.stage].push_back(e.done);
+    CHECK(e.done <= e.total);
+  }
+  REQUIRE(order == std::vector<std::string>{"correlation search: coarse scales", "correlation search: candidates"});
+  // frame_scale_range 1.6 at 4 scales per octave: ceil(log2(1.6) * 4) = 3 on each side of the ratio.
+  CHECK(done[order[0]] == std::vector<std::size_t>{0, 1, 2, 3, 4, 5, 6, 7});
+  CHECK(done[order[1]] == std::vector<std::size_t>{0, 1, 2, 3, 4});
+  CHECK(events.back().total == 4);
 }
 
 TEST_CASE("DsmCorrelationSearch: CorrelationStrength::samples counts pixels, share counts the footprint", "[terrain]") {

@@ -177,7 +177,8 @@ struct RoughCoregistrationOptions {
   /// Worker threads over tile pairs and the correlation fallback's hypotheses (0 = all cores; it
   /// replaces `correlation_search.threads`). Results do not depend on it.
   std::size_t threads = 0;
-  /// Progress over tile pairs, per rotation hypothesis. May be empty.
+  /// Progress over tile pairs, per rotation hypothesis, and over the correlation fallback's stages
+  /// (it replaces `correlation_search.progress`). May be empty.
   ProgressCallback progress;
 
   void check() const {
@@ -647,6 +648,7 @@ inline void correlation_fallback(const Dsm& master, const Dsm& secondary, const 
   report.correlation_ran = true;
   DsmCorrelationSearchOptions search = options.correlation_search;
   search.threads = options.threads;
+  search.progress = options.progress;
   report.correlation = dsm_correlation_search(master, secondary, search);
   const auto fail = [&](const std::string& why) {
     report.message += "; correlation fallback: " + why;

@@ -31,6 +31,7 @@
 
 #include <diachron/core/error.hpp>
 #include <diachron/core/parallel.hpp>
+#include <diachron/core/progress.hpp>
 #include <diachron/core/raster.hpp>
 #include <diachron/core/types.hpp>
 #include <diachron/terrain/dsm.hpp>
@@ -115,6 +116,10 @@ struct DsmCorrelationSearchOptions {
   /// Worker threads over the coarse level's scales and over the candidates (0 = all cores). The
   /// result does not depend on it. rough_coregistration() sets it to its own `threads`.
   std::size_t threads = 0;
+  /// Progress: stage "correlation search: coarse scales" (one unit per scale, each of about 36
+  /// rotations), then "correlation search: candidates" (one unit per candidate refined). May be
+  /// empty. rough_coregistration() sets it to its own `progress`.
+  ProgressCallback progress;
 
   void check() const {
     DIACHRON_CHECK(max_gain_factor > 1.0, "max_gain_factor must be > 1, got " << max_gain_factor);
@@ -525,6 +530,7 @@ inline DsmCorrelationResult dsm_correlation_search(const Dsm& master, const Dsm&
   // slot, gathered in scale order so that the result does not depend on the threads.
   std::vector<std::vector<detail::CorrelationHypothesis>> per_scale(static_cast<std::size_t>(2 * half_scales + 1));
   auto t0 = std::chrono::steady_clock::now();
+  ProgressReporter scale_progress(options.progress, "correlation search: coarse scales", per_scale.size());
   parallel_for(per_scale.size(), options.threads, [&](std::size_t slot) {
     const int si = static_cast<int>(slot) - half_scales;
     const double ratio = r0 * std::pow(step, si);
@@ -532,7 +538,10 @@ inline DsmCorrelationResult dsm_correlation_search(const Dsm& master, const Dsm&
     cells(ratio, g, finest);
     const std::vector<Raster<float>> fixed = working_fixed(ratio, g);
     const std::size_t fixed_valid = detail::count_valid(fixed[0]);
-    if (fixed_valid < 4) return;
+    if (fixed_valid < 4) {
+      scale_progress.advance();
+      return;
+    }
     // Any rotation of the template fits in a square of the master's diagonal.
     const int diag = static_cast<int>(std::ceil(std::hypot(mw, mh) * ratio / g)) + 3;
     MaskedNcc ncc(fixed, diag, diag);
@@ -545,6 +554,7 @@ inline DsmCorrelationResult dsm_correlation_search(const Dsm& master, const Dsm&
       correlate(&ncc, fixed, fixed_valid, h, g, nullptr, 0);
       if (std::isfinite(h.score)) per_scale[slot].push_back(h);
     }
+    scale_progress.advance();
   });
   std::vector<detail::CorrelationHypothesis> coarse;
   for (const auto& hs : per_scale) coarse.insert(coarse.end(), hs.begin(), hs.end());
@@ -642,6 +652,7 @@ inline DsmCorrelationResult dsm_correlation_search(const Dsm& master, const Dsm&
     }
   };
   std::vector<Track> tracks(picked.size());
+  ProgressReporter candidate_progress(options.progress, "correlation search: candidates", picked.size());
   parallel_for(picked.size(), options.threads, [&](std::size_t i) {
     Track& tr = tracks[i];
     tr.h = coarse[picked[i]];
@@ -650,6 +661,7 @@ inline DsmCorrelationResult dsm_correlation_search(const Dsm& master, const Dsm&
     cells(tr.h.ratio, tr.g_coarse, tr.finest);
     tr.g = tr.g_coarse;
     while (tr.g > tr.finest * (1.0 + 1e-9) && !tr.stuck) refine_level(tr);
+    candidate_progress.advance();
   });
   std::size_t win = 0;
   for (std::size_t i = 1; i < tracks.size(); ++i)
