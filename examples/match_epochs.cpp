@@ -380,7 +380,9 @@ void write_report(const std::string& path, const EpochFolder& e1, const EpochFol
       << ", \"message\": " << quoted(rough.message) << ", \"inliers_2d\": " << rough.inliers_2d.size()
       << ", \"inliers_3d\": " << rough.inliers_3d.size() << ", \"rms_3d\": " << rough.rms_3d
       << ", \"trust\": " << quoted(to_string(rough.trust))
+      << ", \"correlation_fallback_ran\": " << (rough.correlation_ran ? "true" : "false")
       << ", \"correlation_fallback_used\": " << (rough.correlation_used ? "true" : "false")
+      << ", \"seconds_correlation_fallback\": " << rough.seconds.correlation
       << ", \"seconds\": " << rough.seconds.total << "},\n";
   out << "  \"overlapping_pairs\": {\"candidates\": " << overlap.candidate_pairs
       << ", \"overlapping\": " << overlap.overlapping_pairs << ", \"kept\": " << overlap.pairs.size()

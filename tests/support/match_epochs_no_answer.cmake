@@ -20,6 +20,11 @@ file(READ "${WORK}/out/report.json" report)
 if(NOT report MATCHES "\"success\": *false")
   message(FATAL_ERROR "report.json does not record the failure:\n${report}")
 endif()
+# The features found nothing, so the dense correlation fallback searched the DSMs, gave no answer,
+# and the report says what it cost.
+if(NOT report MATCHES "\"correlation_fallback_ran\": true, \"correlation_fallback_used\": false, \"seconds_correlation_fallback\": [0-9.e-]*[1-9]")
+  message(FATAL_ERROR "report.json does not record the fallback's run and its time:\n${report}")
+endif()
 if(EXISTS "${WORK}/out/Homol" OR EXISTS "${WORK}/out/rough_helmert.json")
   message(FATAL_ERROR "match_epochs wrote tie points or a Helmert although it found no co-registration")
 endif()
