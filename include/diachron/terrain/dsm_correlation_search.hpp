@@ -11,6 +11,8 @@
 /// ZNCC is blind to the gain and offset of heights, hence to the frames' height scale and datum.
 /// By default (CorrelationSignal::gradient) it correlates the heights' gradient (two channels), which
 /// is also blind to a tilt between the frames; CorrelationSignal::heights correlates the heights.
+/// The scales of the coarse grid, then the candidates, run on `threads` (the result does not depend
+/// on them) and report `progress`.
 ///
 /// Conventions: pixel coordinates are pixel centres (diachron's convention); the result maps master
 /// DSM pixels to secondary DSM pixels, p_s = scale R(angle) D p_m + translation, with D = diag(1, -1)
