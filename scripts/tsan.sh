@@ -13,9 +13,10 @@ cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE= -DCMAKE_CXX_FLAGS="-O1 -fsaniti
       -DCMAKE_EXE_LINKER_FLAGS=-fsanitize=thread -DDIACHRON_BUILD_EXAMPLES=OFF -DDIACHRON_BUILD_BENCH=OFF >/dev/null
 cmake --build "$build" -j "$(nproc)" --target test_terrain test_pipeline
 export TSAN_OPTIONS="halt_on_error=1 suppressions=$root/tests/support/tsan.supp"
-for run in "test_terrain [#dsm_correlation_search_test]" "test_pipeline [#rough_coregistration_test]" \
-           "test_pipeline [#precise_matching_test]"; do
-  set -- $run
+run() {  # PROGRAM FILE_TAG: one test file's cases (the tag quoted: [#...] is a glob pattern unquoted)
   echo "== $1 $2"
   "$build/tests/$1" "$2" "-#"
-done
+}
+run test_terrain "[#dsm_correlation_search_test]"
+run test_pipeline "[#rough_coregistration_test]"
+run test_pipeline "[#precise_matching_test]"

@@ -532,18 +532,14 @@ inline DsmCorrelationResult dsm_correlation_search(const Dsm& master, const Dsm&
   // slot, gathered in scale order so that the result does not depend on the threads.
   std::vector<std::vector<detail::CorrelationHypothesis>> per_scale(static_cast<std::size_t>(2 * half_scales + 1));
   auto t0 = std::chrono::steady_clock::now();
-  ProgressReporter scale_progress(options.progress, "correlation search: coarse scales", per_scale.size());
-  parallel_for(per_scale.size(), options.threads, [&](std::size_t slot) {
+  const auto correlate_scale = [&](std::size_t slot) {
     const int si = static_cast<int>(slot) - half_scales;
     const double ratio = r0 * std::pow(step, si);
     double g = 0.0, finest = 0.0;
     cells(ratio, g, finest);
     const std::vector<Raster<float>> fixed = working_fixed(ratio, g);
     const std::size_t fixed_valid = detail::count_valid(fixed[0]);
-    if (fixed_valid < 4) {
-      scale_progress.advance();
-      return;
-    }
+    if (fixed_valid < 4) return;
     // Any rotation of the template fits in a square of the master's diagonal.
     const int diag = static_cast<int>(std::ceil(std::hypot(mw, mh) * ratio / g)) + 3;
     MaskedNcc ncc(fixed, diag, diag);
@@ -556,6 +552,10 @@ inline DsmCorrelationResult dsm_correlation_search(const Dsm& master, const Dsm&
       correlate(&ncc, fixed, fixed_valid, h, g, nullptr, 0);
       if (std::isfinite(h.score)) per_scale[slot].push_back(h);
     }
+  };
+  ProgressReporter scale_progress(options.progress, "correlation search: coarse scales", per_scale.size());
+  parallel_for(per_scale.size(), options.threads, [&](std::size_t slot) {
+    correlate_scale(slot);
     scale_progress.advance();
   });
   std::vector<detail::CorrelationHypothesis> coarse;
