@@ -488,6 +488,10 @@ int main(int argc, char** argv) {
                          r.correlation_used ? "used" : "not used", r.correlation.score, r.correlation.runner_up,
                          r.correlation.hypotheses, r.seconds.correlation, r.correlation.seconds.coarse,
                          r.correlation.seconds.refine, fallback_off, r.correlation.message.c_str());
+            std::fprintf(stderr, "  correlation tiles: %d of %d agree, chance %.3g, other candidates %.3g, %s, %.3f s\n",
+                         r.correlation.tiles.agree, r.correlation.tiles.tiles, r.correlation.tile_chance,
+                         r.correlation.competitor_tile_chance, r.correlation.by_tiles ? "by tiles" : "not by tiles",
+                         r.correlation.seconds.tiles);
           }
           std::fprintf(stderr, "case %zu %-13s overlap %.2f rot %6.1f scale %.2f | %-32s %s err %8.2f cells, %4zu/%5zu in %.1f s | rms3d %.2f cells, 3D inliers %zu/%zu, trust %s | %s\n",
                        k, source_name.c_str(), c.overlap, c.rotation_deg, c.scale, config.name.c_str(),

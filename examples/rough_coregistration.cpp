@@ -111,6 +111,9 @@ void write_report(const std::string& path, const RoughCoregistrationReport& r, c
         << ", \"message\": " << quoted(c.message) << ", \"score\": " << number(c.score)
         << ", \"strength\": " << number(c.strength) << ", \"runner_up_strength\": " << number(c.runner_up_strength)
         << ", \"height_gain\": " << number(c.height_gain) << ", \"expected_gain\": " << number(c.expected_gain)
+        << ", \"tiles\": " << c.tiles.tiles << ", \"tiles_agreeing\": " << c.tiles.agree
+        << ", \"tile_chance\": " << number(c.tile_chance) << ", \"competitor_tile_chance\": "
+        << number(c.competitor_tile_chance) << ", \"by_tiles\": " << (c.by_tiles ? "true" : "false")
         << ", \"hypotheses\": " << c.hypotheses << ", \"seconds\": " << r.seconds.correlation << "},\n";
   }
   out << "  \"seconds\": {\"images\": "

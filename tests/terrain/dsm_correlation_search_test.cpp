@@ -154,6 +154,8 @@ TEST_CASE("DsmCorrelationSearch: the result does not depend on the threads", "[t
     CHECK(many.strength == one.strength);
     CHECK(many.runner_up_strength == one.runner_up_strength);
     CHECK(many.height_gain == one.height_gain);
+    CHECK(many.tiles.agree == one.tiles.agree);
+    CHECK(many.tile_chance == one.tile_chance);
     CHECK(many.message == one.message);
   }
   CHECK(one.success);
@@ -208,11 +210,47 @@ TEST_CASE("DsmCorrelationSearch: CorrelationStrength::samples counts pixels, sha
   }
 }
 
+TEST_CASE("DsmCorrelationSearch: with the margin out of reach, the tiles answer, unless two places hold", "[terrain]") {
+  const Terrain terrain(11);
+  const Case c = make_case(terrain, terrain, 1.4, 127.0, {42.0, 38.0}, 32, 28, false, 84);
+  diachron::DsmCorrelationSearchOptions o = quick_options();
+  o.min_margin = 1.99;  // no winner stands out by that much
+  const diachron::DsmCorrelationResult by_tiles = diachron::dsm_correlation_search(c.master, c.secondary, o);
+  INFO(by_tiles.message);
+  REQUIRE(by_tiles.success);
+  CHECK(by_tiles.by_tiles);
+  CHECK(max_error_px(c, by_tiles) < 2.0);
+  CHECK(by_tiles.tiles.tiles >= 8);
+  CHECK(by_tiles.tile_chance <= o.max_tile_chance);
+  CHECK(by_tiles.competitor_tile_chance > o.max_tile_chance);
+  CHECK(by_tiles.message.find("tiles agree") != std::string::npos);
+  // The same without the alternative: no answer, and the message says why.
+  o.max_tile_chance = 0.0;
+  const diachron::DsmCorrelationResult margin_only = diachron::dsm_correlation_search(c.master, c.secondary, o);
+  CHECK_FALSE(margin_only.success);
+  CHECK_FALSE(margin_only.by_tiles);
+  CHECK(margin_only.message.find("margin below") != std::string::npos);
+
+  // The secondary holds the master's ground twice, side by side: the winner's tiles agree, and so do
+  // those of the candidate at the other copy, so there is no answer by tiles.
+  o.max_tile_chance = 1e-3;
+  diachron::Raster<float> twice(168, 84);
+  for (int y = 0; y < 84; ++y)
+    for (int x = 0; x < 168; ++x) twice(x, y) = c.secondary.heights()(x % 84, y);
+  const diachron::Dsm secondary(twice, diachron::GeoTransform::north_up(0.0, 84, 1.0));
+  const diachron::DsmCorrelationResult two = diachron::dsm_correlation_search(c.master, secondary, o);
+  INFO(two.message);
+  CHECK_FALSE(two.success);
+  CHECK(two.tile_chance <= o.max_tile_chance);
+  CHECK(two.competitor_tile_chance <= o.max_tile_chance);
+}
+
 TEST_CASE("DsmCorrelationSearch: no answer on unrelated DSMs", "[terrain]") {
   const Case c = make_case(Terrain(5), Terrain(99), 1.2, 30.0, {60.0, 60.0}, 40, 40, false);
   const diachron::DsmCorrelationResult r = diachron::dsm_correlation_search(c.master, c.secondary, quick_options());
   INFO(r.message);
   CHECK_FALSE(r.success);
+  CHECK_FALSE(r.by_tiles);
   CHECK_FALSE(r.message.empty());
 }
 
