@@ -383,6 +383,7 @@ void write_report(const std::string& path, const EpochFolder& e1, const EpochFol
       << ", \"correlation_fallback_ran\": " << (rough.correlation_ran ? "true" : "false")
       << ", \"correlation_fallback_used\": " << (rough.correlation_used ? "true" : "false")
       << ", \"seconds_correlation_fallback\": " << rough.seconds.correlation
+      << ", \"correlation_fallback_by_tiles\": " << (rough.correlation_used && rough.correlation.by_tiles ? "true" : "false")
       << ", \"seconds\": " << rough.seconds.total << "},\n";
   out << "  \"overlapping_pairs\": {\"candidates\": " << overlap.candidate_pairs
       << ", \"overlapping\": " << overlap.overlapping_pairs << ", \"kept\": " << overlap.pairs.size()

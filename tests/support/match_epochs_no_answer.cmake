@@ -21,8 +21,8 @@ if(NOT report MATCHES "\"success\": *false")
   message(FATAL_ERROR "report.json does not record the failure:\n${report}")
 endif()
 # The features found nothing, so the dense correlation fallback searched the DSMs, gave no answer,
-# and the report says what it cost.
-if(NOT report MATCHES "\"correlation_fallback_ran\": true, \"correlation_fallback_used\": false, \"seconds_correlation_fallback\": [0-9.e-]*[1-9]")
+# and the report says what it cost (and that no answer was taken by its tiles).
+if(NOT report MATCHES "\"correlation_fallback_ran\": true, \"correlation_fallback_used\": false, \"seconds_correlation_fallback\": [0-9.e-]*[1-9][0-9.e-]*, \"correlation_fallback_by_tiles\": false")
   message(FATAL_ERROR "report.json does not record the fallback's run and its time:\n${report}")
 endif()
 if(EXISTS "${WORK}/out/Homol" OR EXISTS "${WORK}/out/rough_helmert.json")
