@@ -738,25 +738,43 @@ inline DsmCorrelationResult dsm_correlation_search(const Dsm& master, const Dsm&
     const Eigen::Vector2d d = (tr.h.translation - Eigen::Vector2d::Constant(0.5 * (tr.g - 1.0))) / tr.g + origin;
     return Eigen::Vector2i(static_cast<int>(std::lround(d.x())), static_cast<int>(std::lround(d.y())));
   };
-  // The height gain at the winner, at its finest cell: cov(f, g) / var(g) over the overlap. Raw
-  // heights: the gain of the whole relief; through the gradient when that is the signal, so that a
-  // tilt between the frames does not enter the gain either.
+  // The tiles of a candidate's placement (see DsmCorrelationSearchOptions::max_tile_chance), on its
+  // signals at its finest cell, and the chance of as many agreeing on a wrong placement.
+  const auto tile_chance_of = [&](const std::vector<Raster<float>>& fixed, const std::vector<Raster<float>>& t,
+                                  const Eigen::Vector2i& d, TileAgreement* out) {
+    const TileAgreement a = tile_agreement(fixed, t, d.x(), d.y(), options.tiles);
+    if (out) *out = a;
+    return binomial_tail(a.agree, a.tiles, options.tile_chance);
+  };
+  // At the winner, from one set of its signals: the height gain, cov(f, g) / var(g) over the overlap
+  // (raw heights: the gain of the whole relief; through the gradient when that is the signal, so that
+  // a tilt between the frames does not enter the gain either), and its tiles.
   {
     std::vector<Raster<float>> fixed, t;
     const Eigen::Vector2i d = placed(tracks[win], fixed, t);
     result.height_gain = detail::regression_gain(fixed, t, d.x(), d.y());
     result.expected_gain = w.ratio * secondary.min_cell_size() / master.min_cell_size();
+    t0 = std::chrono::steady_clock::now();
+    if (options.max_tile_chance > 0.0) result.tile_chance = tile_chance_of(fixed, t, d, &result.tiles);
   }
-  // The winner's tiles (see DsmCorrelationSearchOptions::max_tile_chance).
-  t0 = std::chrono::steady_clock::now();
-  const auto tile_chance_of = [&](const Track& tr, TileAgreement* out) {
-    std::vector<Raster<float>> fixed, t;
-    const Eigen::Vector2i d = placed(tr, fixed, t);
-    const TileAgreement a = tile_agreement(fixed, t, d.x(), d.y(), options.tiles);
-    if (out) *out = a;
-    return binomial_tail(a.agree, a.tiles, options.tile_chance);
-  };
-  if (options.max_tile_chance > 0.0) result.tile_chance = tile_chance_of(tracks[win], &result.tiles);
+  // A winner short of the margin whose tiles hold is the answer only if it is the only placement that
+  // holds: the other candidates, refined as far as the winner (at the finest cell until a rotation
+  // step moves the rim by a pixel), must not hold beyond chance.
+  const bool short_of_margin = !(w_coarse.strength - runner_strength >= options.min_margin);
+  if (w.score >= options.min_score && short_of_margin && result.tile_chance <= options.max_tile_chance) {
+    std::vector<Track> others;
+    for (std::size_t i = 0; i < tracks.size(); ++i)
+      if (i != win && !same_place(tracks[i].h, w)) others.push_back(tracks[i]);
+    std::vector<double> chances(others.size(), 1.0);
+    parallel_for(others.size(), options.threads, [&](std::size_t i) {
+      refine_to_end(others[i]);
+      std::vector<Raster<float>> fixed, t;
+      const Eigen::Vector2i d = placed(others[i], fixed, t);
+      chances[i] = tile_chance_of(fixed, t, d, nullptr);
+    });
+    result.competitor_tile_chance = 1.0;
+    for (double c : chances) result.competitor_tile_chance = std::min(result.competitor_tile_chance, c);
+  }
   result.seconds.tiles = since(t0);
   result.hypotheses = hypotheses.load();
   result.seconds.total = since(start);
@@ -767,7 +785,7 @@ inline DsmCorrelationResult dsm_correlation_search(const Dsm& master, const Dsm&
       ", runner-up elsewhere " + std::to_string(runner).substr(0, 5) + " at scale " +
       std::to_string(result.runner_up_scale).substr(0, 5) + ", rotation " +
       std::to_string(rad_to_deg(result.runner_up_angle)).substr(0, 6) + " deg), scale " + std::to_string(w.ratio).substr(0, 6) +
-      ", rotation " + std::to_string(rad_to_deg(result.angle)).substr(0, 6) + " deg, " + std::to_string(hypotheses) +
+      ", rotation " + std::to_string(rad_to_deg(result.angle)).substr(0, 6) + " deg, " + std::to_string(result.hypotheses) +
       " hypotheses";
   if (!(w.score >= options.min_score)) {
     result.message = summary + ": below min_score " + std::to_string(options.min_score).substr(0, 4);
@@ -780,35 +798,13 @@ inline DsmCorrelationResult dsm_correlation_search(const Dsm& master, const Dsm&
       t += ", other candidates " + detail::short_number(result.competitor_tile_chance);
     return t + ")";
   };
-  bool held_by_tiles = false;
-  if (!(w_coarse.strength - runner_strength >= options.min_margin)) {
-    if (result.tile_chance <= options.max_tile_chance) {
-      // An answer by tiles must be the only placement that holds: the other candidates, refined as
-      // far as the winner (at the finest cell until a rotation step moves the rim by a pixel), must
-      // not hold beyond chance.
-      t0 = std::chrono::steady_clock::now();
-      std::vector<Track> others;
-      for (std::size_t i = 0; i < tracks.size(); ++i)
-        if (i != win && !same_place(tracks[i].h, w)) others.push_back(tracks[i]);
-      std::vector<double> chances(others.size(), 1.0);
-      parallel_for(others.size(), options.threads, [&](std::size_t i) {
-        refine_to_end(others[i]);
-        chances[i] = tile_chance_of(others[i], nullptr);
-      });
-      result.competitor_tile_chance = 1.0;
-      for (double c : chances) result.competitor_tile_chance = std::min(result.competitor_tile_chance, c);
-      result.seconds.tiles += since(t0);
-      result.hypotheses = hypotheses.load();
-      result.seconds.total = since(start);
-    }
-    held_by_tiles = result.tile_chance <= options.max_tile_chance &&
-                    result.competitor_tile_chance > options.max_tile_chance;
-    if (!held_by_tiles) {
-      result.message = summary + ": not distinct from the runner-up (margin below " +
-                       std::to_string(options.min_margin).substr(0, 4) + ")" +
-                       (options.max_tile_chance > 0.0 ? " and " + tile_summary() : std::string());
-      return result;
-    }
+  const bool held_by_tiles = short_of_margin && result.tile_chance <= options.max_tile_chance &&
+                             result.competitor_tile_chance > options.max_tile_chance;
+  if (short_of_margin && !held_by_tiles) {
+    result.message = summary + ": not distinct from the runner-up (margin below " +
+                     std::to_string(options.min_margin).substr(0, 4) + ")" +
+                     (options.max_tile_chance > 0.0 ? " and " + tile_summary() : std::string());
+    return result;
   }
   if (!(std::abs(std::log(result.height_gain / result.expected_gain)) <= std::log(options.max_gain_factor))) {
     result.message = summary + ": the heights' gain " + std::to_string(result.height_gain).substr(0, 6) +
