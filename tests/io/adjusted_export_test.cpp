@@ -77,9 +77,12 @@ TEST_CASE("write_adjusted_export: COLMAP models that project as the adjusted fra
   CHECK(json[3].camera.params() == images[3].camera.params());
 
   RandomStream rng(5, 0);
-  for (const auto& [epoch, folder] : report.model_folders) {
-    const ColmapModel model = read_colmap_text(folder);
-    for (const auto& [id, image] : model.images) {
+  // Named references, not structured bindings: C++17 lambdas cannot capture a binding (clang refuses).
+  for (const auto& epoch_folder : report.model_folders) {
+    const std::string& epoch = epoch_folder.first;
+    const ColmapModel model = read_colmap_text(epoch_folder.second);
+    for (const auto& id_image : model.images) {
+      const auto& image = id_image.second;
       const CamerasJsonImage& source = *std::find_if(images.begin(), images.end(),
                                                      [&](const CamerasJsonImage& i) { return i.name == image.name; });
       CHECK(source.epoch == epoch);
@@ -94,7 +97,9 @@ TEST_CASE("write_adjusted_export: COLMAP models that project as the adjusted fra
       int tested = 0;
       for (int k = 0; k < 200; ++k) {
         // A ground point seen inside the image.
-        const Vec2 pixel(rng.uniform(0.0, camera.width - 1.0), rng.uniform(0.0, camera.height - 1.0));
+        // One draw per statement, y before x (core/random.hpp, "Order of draws").
+        const double y = rng.uniform(0.0, camera.height - 1.0);
+        const Vec2 pixel(rng.uniform(0.0, camera.width - 1.0), y);
         const std::optional<Ray3> ray = frame.ray(pixel);
         REQUIRE(ray);
         const Vec3 world = ray->origin + rng.uniform(1300.0, 1600.0) * ray->direction;

@@ -158,8 +158,6 @@ struct PartialFrame {
   }
 };
 
-diachron::Dsm temporary_dsm() { return plane_dsm(Plane{10.0, 0.0, 0.0}); }
-
 // Detection: is `make_dsm_transfer(frame, dsm-expression, frame)` well-formed?
 template <class DsmExpr, class = void>
 struct can_make_transfer : std::false_type {};
@@ -188,7 +186,7 @@ TEST_CASE("Transfer: a temporary DSM does not compile where the DSM is kept by p
   STATIC_REQUIRE(can_make_transfer<Dsm&>::value);
   STATIC_REQUIRE_FALSE(can_make_transfer<Dsm>::value);
   STATIC_REQUIRE_FALSE(can_make_transfer<Dsm&&>::value);
-  STATIC_REQUIRE_FALSE(can_make_transfer<decltype(temporary_dsm())>::value);
+  STATIC_REQUIRE_FALSE(can_make_transfer<decltype(plane_dsm(Plane{10.0, 0.0, 0.0}))>::value);
   STATIC_REQUIRE(std::is_constructible_v<diachron::DsmLift<PinholeFrame>, PinholeFrame, const Dsm&>);
   STATIC_REQUIRE_FALSE(std::is_constructible_v<diachron::DsmLift<PinholeFrame>, PinholeFrame, Dsm>);
   STATIC_REQUIRE_FALSE(std::is_constructible_v<diachron::DsmLift<PinholeFrame>, PinholeFrame, const Dsm&&>);
