@@ -74,9 +74,12 @@ int main(int argc, char** argv) {
   RandomStream rng(2);
   std::vector<Eigen::Vector2d> points, predictions;
   for (int i = 0; i < points_n; ++i) {
-    const Eigen::Vector2d a(std::round(rng.uniform(300.0, 900.0)), std::round(rng.uniform(250.0, 650.0)));
+    // One draw per statement, y before x (core/random.hpp, "Order of draws").
+    const double ay = std::round(rng.uniform(250.0, 650.0));
+    const Eigen::Vector2d a(std::round(rng.uniform(300.0, 900.0)), ay);
     points.push_back(a);
-    predictions.push_back(truth(a) + Eigen::Vector2d(rng.uniform(-6.0, 6.0), rng.uniform(-6.0, 6.0)));
+    const double ey = rng.uniform(-6.0, 6.0);
+    predictions.push_back(truth(a) + Eigen::Vector2d(rng.uniform(-6.0, 6.0), ey));
   }
   CorrelationMatchOptions options;
   options.measure = CorrelationMeasure::intensity;

@@ -63,9 +63,12 @@ cv::Mat make_texture(int size, std::uint64_t seed) {
     img += up(cv::Rect(cell, cell, size, size)) * weight;
   }
   for (int i = 0; i < size * size / 900; ++i) {
-    const cv::Point c(static_cast<int>(rng.uniform(0, size)), static_cast<int>(rng.uniform(0, size)));
-    cv::circle(img, c, static_cast<int>(rng.uniform(2, 14)), cv::Scalar(rng.uniform(-1.5, 1.5)), cv::FILLED,
-               cv::LINE_AA);
+    // One draw per statement, in the order GCC evaluated the calls' arguments (core/random.hpp,
+    // "Order of draws"): y, x, then the shade, then the radius.
+    const int cy = static_cast<int>(rng.uniform(0, size));
+    const cv::Point c(static_cast<int>(rng.uniform(0, size)), cy);
+    const double shade = rng.uniform(-1.5, 1.5);
+    cv::circle(img, c, static_cast<int>(rng.uniform(2, 14)), cv::Scalar(shade), cv::FILLED, cv::LINE_AA);
   }
   cv::GaussianBlur(img, img, cv::Size(0, 0), 1.0);
   cv::normalize(img, img, 0, 255, cv::NORM_MINMAX);

@@ -179,8 +179,11 @@ int main(int argc, char** argv) {
   diachron::RandomStream rng(3);
   PointMatches grid, any;
   while (grid.size() < count) {
-    const Eigen::Vector2d a(rng.uniform(40.0, size - 40.0), rng.uniform(40.0, size - 40.0));
-    const Eigen::Vector2d b = truth(a) + Eigen::Vector2d(rng.uniform(-1.5, 1.5), rng.uniform(-1.5, 1.5));
+    // One draw per statement, y before x (core/random.hpp, "Order of draws").
+    const double ay = rng.uniform(40.0, size - 40.0);
+    const Eigen::Vector2d a(rng.uniform(40.0, size - 40.0), ay);
+    const double ey = rng.uniform(-1.5, 1.5);
+    const Eigen::Vector2d b = truth(a) + Eigen::Vector2d(rng.uniform(-1.5, 1.5), ey);
     if (b.minCoeff() < 40.0 || b.maxCoeff() > size - 40.0) continue;
     any.push_back({a, b, 0.0});
     const auto snap = [](const Eigen::Vector2d& p) { return Eigen::Vector2d((p * 32.0).array().round() / 32.0); };

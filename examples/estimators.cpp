@@ -38,11 +38,18 @@ Scene2 make_scene2(std::size_t inliers, std::size_t outliers, std::uint64_t seed
   Scene2 scene;
   diachron::RandomStream rng(seed, 2);
   for (std::size_t i = 0; i < inliers + outliers; ++i) {
-    const Eigen::Vector2d source(rng.uniform(0, kExtent), rng.uniform(0, kExtent));
-    const Eigen::Vector2d target =
-        i < inliers ? Eigen::Vector2d(scene.truth(source) +
-                                      Eigen::Vector2d(rng.normal(0, kSigma), rng.normal(0, kSigma)))
-                    : Eigen::Vector2d(rng.uniform(-500, 800), rng.uniform(-700, 600));
+    // One draw per statement, y before x: the order of a call's arguments is unspecified, and
+    // compilers differ (core/random.hpp, "Order of draws").
+    const double sy = rng.uniform(0, kExtent), sx = rng.uniform(0, kExtent);
+    const Eigen::Vector2d source(sx, sy);
+    Eigen::Vector2d target;
+    if (i < inliers) {
+      const double ny = rng.normal(0, kSigma), nx = rng.normal(0, kSigma);
+      target = scene.truth(source) + Eigen::Vector2d(nx, ny);
+    } else {
+      const double ty = rng.uniform(-700, 600), tx = rng.uniform(-500, 800);
+      target = Eigen::Vector2d(tx, ty);
+    }
     scene.pairs.push_back({source, target});
   }
   return scene;
@@ -58,13 +65,16 @@ Scene3 make_scene3(std::size_t inliers, std::size_t outliers, std::uint64_t seed
   Scene3 scene;
   diachron::RandomStream rng(seed, 3);
   for (std::size_t i = 0; i < inliers + outliers; ++i) {
-    const Eigen::Vector3d source(rng.uniform(0, kExtent), rng.uniform(0, kExtent),
-                                 rng.uniform(0, 150));
-    const Eigen::Vector3d noise(rng.normal(0, kSigma), rng.normal(0, kSigma), rng.normal(0, kSigma));
-    const Eigen::Vector3d target = i < inliers ? Eigen::Vector3d(scene.truth(source) + noise)
-                                               : Eigen::Vector3d(rng.uniform(-200, 1400),
-                                                                 rng.uniform(0, 1500),
-                                                                 rng.uniform(-100, 250));
+    // z, y, x: as above.
+    const double sz = rng.uniform(0, 150), sy = rng.uniform(0, kExtent), sx = rng.uniform(0, kExtent);
+    const Eigen::Vector3d source(sx, sy, sz);
+    const double nz = rng.normal(0, kSigma), ny = rng.normal(0, kSigma), nx = rng.normal(0, kSigma);
+    const Eigen::Vector3d noise(nx, ny, nz);
+    Eigen::Vector3d target = scene.truth(source) + noise;
+    if (i >= inliers) {
+      const double tz = rng.uniform(-100, 250), ty = rng.uniform(0, 1500), tx = rng.uniform(-200, 1400);
+      target = Eigen::Vector3d(tx, ty, tz);
+    }
     scene.pairs.push_back({source, target});
   }
   return scene;

@@ -26,6 +26,13 @@ constexpr std::uint64_t mix64(std::uint64_t z) {
 /// statistically independent; the same (seed, stream) always yields the same sequence on every
 /// platform (no std:: distributions, whose output is implementation-defined).
 /// Not thread-safe: one stream per task.
+///
+/// Order of draws: never draw twice in one expression, as in `Vec2(r.uniform(), r.uniform())` or
+/// `r.uniform01() * r.uniform()`. The order of a call's arguments and of an operator's operands is
+/// unspecified, compilers differ (GCC evaluates those arguments right to left, clang left to
+/// right), and the same seed then makes a different scene on each. Draw in separate statements.
+/// The library's generators draw in the order GCC used when the documented figures were measured,
+/// so a y is often drawn before its x.
 class RandomStream {
  public:
   explicit RandomStream(std::uint64_t seed = 0, std::uint64_t stream = 0) {

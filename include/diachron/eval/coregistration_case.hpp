@@ -192,7 +192,9 @@ inline CoregistrationCase make_coregistration_case(const Dsm& master_world, cons
   // Master frame: X1 = F(X_world), F = s Rz(theta) Rtilt X + t; the truth is its inverse.
   const double theta = deg_to_rad(random.uniform(0.0, options.rotation_max_deg));
   const double scale = random.uniform(options.scale_min, options.scale_max);
-  Eigen::Vector3d tilt_axis(random.uniform(-1, 1), random.uniform(-1, 1), 0.0);
+  // One draw per statement, y before x (core/random.hpp, "Order of draws").
+  const double tilt_y = random.uniform(-1, 1), tilt_x = random.uniform(-1, 1);
+  Eigen::Vector3d tilt_axis(tilt_x, tilt_y, 0.0);
   if (tilt_axis.norm() < 1e-9) tilt_axis = Eigen::Vector3d::UnitX();
   tilt_axis.normalize();
   const double tilt = deg_to_rad(random.uniform(0.0, options.tilt_max_deg));
@@ -202,9 +204,10 @@ inline CoregistrationCase make_coregistration_case(const Dsm& master_world, cons
   const double mean_z = master_world.statistics().mean;
   const Eigen::Vector3d centre(0.5 * (win_m.x0 + win_m.x1), 0.5 * (win_m.y0 + win_m.y1),
                                std::isfinite(mean_z) ? mean_z : 0.0);
-  const Eigen::Vector3d shift(random.uniform(-options.shift_max, options.shift_max),
-                              random.uniform(-options.shift_max, options.shift_max),
-                              random.uniform(-0.1 * options.shift_max, 0.1 * options.shift_max));
+  const double shift_z = random.uniform(-0.1 * options.shift_max, 0.1 * options.shift_max);
+  const double shift_y = random.uniform(-options.shift_max, options.shift_max);
+  const double shift_x = random.uniform(-options.shift_max, options.shift_max);
+  const Eigen::Vector3d shift(shift_x, shift_y, shift_z);
   Helmert3 master_from_world;
   master_from_world.scale = scale;
   master_from_world.rotation = rz * rt;

@@ -110,7 +110,9 @@ inline Eigen::Matrix3d random_rotation(RandomStream& random) {
   Eigen::Quaterniond q;
   double norm = 0.0;
   do {
-    q = Eigen::Quaterniond(random.normal(), random.normal(), random.normal(), random.normal());
+    // One draw per statement (core/random.hpp: the order of a call's arguments is unspecified).
+    const double z = random.normal(), y = random.normal(), x = random.normal(), w = random.normal();
+    q = Eigen::Quaterniond(w, x, y, z);
     norm = q.norm();
   } while (norm < 1e-6);
   q.coeffs() /= norm;
@@ -122,7 +124,8 @@ inline Eigen::Matrix3d random_rotation(RandomStream& random) {
 inline Eigen::Matrix3d random_rotation(RandomStream& random, double max_angle) {
   Eigen::Vector3d axis;
   do {
-    axis = Eigen::Vector3d(random.normal(), random.normal(), random.normal());
+    const double z = random.normal(), y = random.normal(), x = random.normal();
+    axis = Eigen::Vector3d(x, y, z);
   } while (axis.norm() < 1e-6);
   axis.normalize();
   return rotation_from_axis_angle<double>(axis * random.uniform(0.0, max_angle));

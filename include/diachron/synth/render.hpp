@@ -446,7 +446,9 @@ inline Raster<std::uint8_t> develop_image(const Raster<float>& radiance, const L
     for (int s = 0; s < look.scan_stripes; ++s) {
       const auto first = static_cast<int>(random.uniform_index(static_cast<std::size_t>(h)));
       const int rows = 1 + static_cast<int>(random.uniform_index(3));
-      const double strength = (random.uniform01() < 0.5 ? 1.0 : -1.0) * random.uniform(0.04, 0.12);
+      // One draw per statement (core/random.hpp, "Order of draws").
+      const double sign = random.uniform01() < 0.5 ? 1.0 : -1.0;
+      const double strength = sign * random.uniform(0.04, 0.12);
       for (int y = first; y < std::min(h, first + rows); ++y) row_offset[static_cast<std::size_t>(y)] += strength;
     }
     for (int y = 0; y < h; ++y)
@@ -456,10 +458,13 @@ inline Raster<std::uint8_t> develop_image(const Raster<float>& radiance, const L
   RandomStream random(seed, detail::mix64(stream) ^ 0x5343524154ULL);
   for (int s = 0; s < look.scratches; ++s) {
     // Film scratches run mostly along the film transport direction (image y).
-    const Vec2 p(random.uniform(0.0, w), random.uniform(0.0, h));
+    // One draw per statement, y before x (core/random.hpp, "Order of draws").
+    const double py = random.uniform(0.0, h), px = random.uniform(0.0, w);
+    const Vec2 p(px, py);
     const double angle = 0.5 * kPi + random.normal(0.0, 0.08);
     const Vec2 n(-std::sin(angle), std::cos(angle));
-    const double strength = (random.uniform01() < 0.7 ? 1.0 : -1.0) * random.uniform(0.15, 0.45);
+    const double sign = random.uniform01() < 0.7 ? 1.0 : -1.0;
+    const double strength = sign * random.uniform(0.15, 0.45);
     const double half_width = random.uniform(0.4, 1.2);
     for (int y = 0; y < h; ++y)
       for (int x = 0; x < w; ++x) {
@@ -469,9 +474,11 @@ inline Raster<std::uint8_t> develop_image(const Raster<float>& radiance, const L
   }
   const auto specks = static_cast<int>(std::llround(look.dust_per_megapixel * w * h * 1e-6));
   for (int s = 0; s < specks; ++s) {
-    const Vec2 c(random.uniform(0.0, w), random.uniform(0.0, h));
+    const double cy = random.uniform(0.0, h), cx = random.uniform(0.0, w);
+    const Vec2 c(cx, cy);
     const double radius = random.uniform(0.6, 2.5);
-    const double strength = (random.uniform01() < 0.5 ? 1.0 : -1.0) * random.uniform(0.2, 0.5);
+    const double sign = random.uniform01() < 0.5 ? 1.0 : -1.0;
+    const double strength = sign * random.uniform(0.2, 0.5);
     for (int y = std::max(0, static_cast<int>(c.y() - radius - 1)); y <= std::min(h - 1, static_cast<int>(c.y() + radius + 1)); ++y)
       for (int x = std::max(0, static_cast<int>(c.x() - radius - 1)); x <= std::min(w - 1, static_cast<int>(c.x() + radius + 1)); ++x)
         if ((Vec2(x, y) - c).norm() <= radius) img(x, y) += static_cast<float>(strength);

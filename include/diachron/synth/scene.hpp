@@ -346,12 +346,15 @@ inline std::vector<SyntheticImage> plan_block(const EpochOptions& o, const Vec2&
       // Image +y points to -across for yaw = heading, so the first line lies at +across and
       // row 0 is at the top of a map drawn with the flight direction to the right.
       const Vec2 xy = centre + (c - 0.5 * (o.columns - 1)) * base * along - (r - 0.5 * (o.rows - 1)) * spacing * across;
-      const Vec3 position(xy.x() + o.position_sigma_m * random.normal(), xy.y() + o.position_sigma_m * random.normal(),
-                          reference_height + o.flying_height_m + o.position_sigma_m * random.normal());
+      // One draw per statement, in the order z, y, x and roll, pitch (core/random.hpp, "Order of draws").
+      const double dz = random.normal(), dy = random.normal(), dx = random.normal();
+      const Vec3 position(xy.x() + o.position_sigma_m * dx, xy.y() + o.position_sigma_m * dy,
+                          reference_height + o.flying_height_m + o.position_sigma_m * dz);
       const double yaw = heading + (o.alternate_direction && r % 2 == 1 ? kPi : 0.0) +
                          deg_to_rad(o.yaw_sigma_deg) * random.normal();
-      image.pose_world = Pose::from_yaw_pitch_roll(position, yaw, deg_to_rad(o.attitude_sigma_deg) * random.normal(),
-                                                   deg_to_rad(o.attitude_sigma_deg) * random.normal());
+      const double roll = deg_to_rad(o.attitude_sigma_deg) * random.normal();
+      const double pitch = deg_to_rad(o.attitude_sigma_deg) * random.normal();
+      image.pose_world = Pose::from_yaw_pitch_roll(position, yaw, pitch, roll);
       images.push_back(std::move(image));
     }
   return images;
@@ -366,8 +369,8 @@ inline Helmert3 draw_epoch_frame(const EpochFrameOptions& o, const Vec3& centre,
   const double tilt_azimuth = random.uniform(0.0, 2.0 * kPi);
   const double tilt = deg_to_rad(o.max_tilt_deg) * random.uniform01();
   const double scale = std::exp(random.uniform(std::log(o.min_scale), std::log(o.max_scale)));
-  const Vec3 shift(random.uniform(-o.max_shift, o.max_shift), random.uniform(-o.max_shift, o.max_shift),
-                   random.uniform(-o.max_shift, o.max_shift));
+  const double shift_z = random.uniform(-o.max_shift, o.max_shift), shift_y = random.uniform(-o.max_shift, o.max_shift);
+  const Vec3 shift(random.uniform(-o.max_shift, o.max_shift), shift_y, shift_z);
   const Mat3 r = rotation_from_axis_angle<double>(Vec3(std::cos(tilt_azimuth), std::sin(tilt_azimuth), 0.0) * tilt) *
                  rotation_from_axis_angle<double>(Vec3(0.0, 0.0, yaw));
   return Helmert3{scale, r, Vec3(shift - scale * (r * centre))};
@@ -433,7 +436,8 @@ inline Dsm sfm_dsm(const SyntheticEpoch& epoch, const EpochOptions& o, const Sur
     const double area = (max_x - min_x) * (max_y - min_y);
     const auto holes = static_cast<int>(std::llround(o.dsm.hole_fraction * area / (kPi * radius * radius)));
     for (int k = 0; k < holes; ++k) {
-      const Vec2 c(random.uniform(min_x, max_x), random.uniform(min_y, max_y));
+      const double cy = random.uniform(min_y, max_y);  // y before x (core/random.hpp, "Order of draws")
+      const Vec2 c(random.uniform(min_x, max_x), cy);
       const Vec2 pc = transform.world_to_pixel(c);
       const int rc = static_cast<int>(std::ceil(radius / cell));
       for (int y = std::max(0, static_cast<int>(pc.y()) - rc); y <= std::min(h - 1, static_cast<int>(pc.y()) + rc); ++y)
@@ -568,7 +572,8 @@ inline Scene generate_scene(const SceneOptions& options) {
       parallel_for(slots.size(), options.threads, [&](std::size_t k) {
         RandomStream random(seed, detail::stream_id(detail::SynthStream::tie, e, k));
         const std::size_t i = random.uniform_index(frames.size());
-        const Vec2 px(random.uniform(2.0, epoch.camera.width() - 3.0), random.uniform(2.0, epoch.camera.height() - 3.0));
+        const double py = random.uniform(2.0, epoch.camera.height() - 3.0);  // y first ("Order of draws")
+        const Vec2 px(random.uniform(2.0, epoch.camera.width() - 3.0), py);
         const std::optional<Ray3> ray = frames[i].ray(px);
         if (!ray) return;
         const std::optional<Vec3> hit = tracers[e].intersect(*ray);
@@ -580,7 +585,8 @@ inline Scene generate_scene(const SceneOptions& options) {
           const std::optional<Vec2> seen =
               detail::visible_pixel(frames[j], tracers[e], *hit, options.visibility_tolerance_m);
           if (!seen) continue;
-          const Vec2 noise(random.normal(), random.normal());
+          const double ny = random.normal();
+          const Vec2 noise(random.normal(), ny);
           tie.observations.push_back({static_cast<int>(j), *seen + o.tie_noise_px * noise});
         }
         if (tie.observations.size() >= 2) slots[k] = std::move(tie);
@@ -621,7 +627,8 @@ inline Scene generate_scene(const SceneOptions& options) {
       RandomStream random(seed, detail::stream_id(detail::SynthStream::check, 0, k));
       const Camera<FraserAffine>& cam = scene.epochs[ref].camera;
       const std::size_t i = random.uniform_index(frames[ref].size());
-      const Vec2 px(random.uniform(8.0, cam.width() - 9.0), random.uniform(8.0, cam.height() - 9.0));
+      const double py = random.uniform(8.0, cam.height() - 9.0);  // y first ("Order of draws")
+      const Vec2 px(random.uniform(8.0, cam.width() - 9.0), py);
       const std::optional<Ray3> ray = frames[ref][i].ray(px);
       if (!ray) return;
       const std::optional<Vec3> hit = tracers[ref].intersect(*ray);

@@ -433,7 +433,9 @@ inline void plant_trees(Landscape& land, const TerrainOptions& options, const Ch
     return true;
   };
   const auto stand = [&](int first_epoch, double height_scale) {
-    const Vec2 centre(random.uniform(bounds.min_x, bounds.max_x), random.uniform(bounds.min_y, bounds.max_y));
+    // One draw per statement, y before x (core/random.hpp, "Order of draws"), here and below.
+    const double centre_y = random.uniform(bounds.min_y, bounds.max_y);
+    const Vec2 centre(random.uniform(bounds.min_x, bounds.max_x), centre_y);
     const double radius = 0.5 * v.stand_diameter_m * random.uniform(0.6, 1.4);
     const std::uint64_t edge_seed = random.next_u64();
     const double mean_height = random.uniform(v.tree_min_height_m, v.tree_max_height_m);
@@ -442,7 +444,8 @@ inline void plant_trees(Landscape& land, const TerrainOptions& options, const Ch
     const int n = static_cast<int>(std::ceil(radius * 1.4 / s));
     for (int j = -n; j <= n; ++j)
       for (int i = -n; i <= n; ++i) {
-        const Vec2 xy = centre + s * Vec2(i + random.uniform(-0.35, 0.35), j + random.uniform(-0.35, 0.35));
+        const double jitter_y = random.uniform(-0.35, 0.35), jitter_x = random.uniform(-0.35, 0.35);
+        const Vec2 xy = centre + s * Vec2(i + jitter_x, j + jitter_y);
         const Vec2 d = xy - centre;
         // A ragged edge: the stand's radius varies by +-30 % with direction and position.
         const double edge = radius * (1.0 + 0.3 * fbm(edge_seed, d.x(), d.y(), 0.6 * radius, 2));
@@ -462,7 +465,8 @@ inline void plant_trees(Landscape& land, const TerrainOptions& options, const Ch
   const auto hedgerow_count = static_cast<std::size_t>(std::llround(v.hedgerows_per_km2 * area_km2));
   std::vector<std::size_t> cuttable;
   for (std::size_t k = 0; k < hedgerow_count; ++k) {
-    const Vec2 start(random.uniform(bounds.min_x, bounds.max_x), random.uniform(bounds.min_y, bounds.max_y));
+    const double start_y = random.uniform(bounds.min_y, bounds.max_y);
+    const Vec2 start(random.uniform(bounds.min_x, bounds.max_x), start_y);
     const double azimuth = random.uniform(0.0, kPi);
     const Vec2 dir(std::cos(azimuth), std::sin(azimuth));
     const double length = v.hedgerow_length_m * random.uniform(0.5, 1.5);
@@ -475,7 +479,8 @@ inline void plant_trees(Landscape& land, const TerrainOptions& options, const Ch
   // Free-standing trees.
   const auto single_count = static_cast<std::size_t>(std::llround(v.single_trees_per_km2 * area_km2));
   const auto single = [&](int first_epoch, double height_scale) {
-    const Vec2 xy(random.uniform(bounds.min_x, bounds.max_x), random.uniform(bounds.min_y, bounds.max_y));
+    const double y = random.uniform(bounds.min_y, bounds.max_y);
+    const Vec2 xy(random.uniform(bounds.min_x, bounds.max_x), y);
     if (add_tree(xy, height_scale * random.uniform(v.tree_min_height_m, v.tree_max_height_m), first_epoch))
       cuttable.push_back(land.trees.size() - 1);
   };
@@ -591,8 +596,8 @@ inline Landscape make_landscape(const TerrainOptions& options, const ChangeOptio
     RandomStream random(seed, 2);
     for (int i = 0; i < options.road_count; ++i) {
       Road road;
-      road.point = Vec2(bounds.min_x + width_m * random.uniform(0.2, 0.8),
-                        bounds.min_y + height_m * random.uniform(0.2, 0.8));
+      const double fy = random.uniform(0.2, 0.8);
+      road.point = Vec2(bounds.min_x + width_m * random.uniform(0.2, 0.8), bounds.min_y + height_m * fy);
       const double azimuth = random.uniform(0.0, kPi);
       road.direction = Vec2(std::cos(azimuth), std::sin(azimuth));
       road.width = options.road_width_m;
@@ -603,7 +608,8 @@ inline Landscape make_landscape(const TerrainOptions& options, const ChangeOptio
     for (int e = 1; e < epoch_count; ++e)
       for (int i = 0; i < changes.new_roads; ++i) {
         Road road;
-        road.point = Vec2(bounds.min_x + width_m * later.uniform(0.15, 0.85), bounds.min_y + height_m * later.uniform(0.15, 0.85));
+        const double fy = later.uniform(0.15, 0.85);
+        road.point = Vec2(bounds.min_x + width_m * later.uniform(0.15, 0.85), bounds.min_y + height_m * fy);
         const double azimuth = later.uniform(0.0, kPi);
         road.direction = Vec2(std::cos(azimuth), std::sin(azimuth));
         road.width = options.road_width_m;
@@ -623,10 +629,12 @@ inline Landscape make_landscape(const TerrainOptions& options, const ChangeOptio
     const auto village_count =
         std::max<std::size_t>(1, static_cast<std::size_t>(std::llround(options.villages_per_km2 * area_km2)));
     std::vector<std::pair<Vec2, double>> villages;  // centre, yaw
-    for (std::size_t v = 0; v < village_count; ++v)
-      villages.emplace_back(Vec2(bounds.min_x + width_m * random.uniform(0.1, 0.9),
-                                 bounds.min_y + height_m * random.uniform(0.1, 0.9)),
-                            random.uniform(0.0, kPi));
+    // A village: its yaw, then its centre's y, then x (core/random.hpp, "Order of draws").
+    const auto new_village = [&] {
+      const double yaw = random.uniform(0.0, kPi), fy = random.uniform(0.1, 0.9), fx = random.uniform(0.1, 0.9);
+      villages.emplace_back(Vec2(bounds.min_x + width_m * fx, bounds.min_y + height_m * fy), yaw);
+    };
+    for (std::size_t v = 0; v < village_count; ++v) new_village();
     const double village_sigma = 0.25 * std::sqrt(1e6 / std::max(options.villages_per_km2, 1e-3));
 
     const auto place = [&](int first_epoch) {
@@ -635,10 +643,13 @@ inline Landscape make_landscape(const TerrainOptions& options, const ChangeOptio
         double yaw;
         if (random.uniform01() < options.village_fraction) {
           const auto& village = villages[random.uniform_index(villages.size())];
-          b.centre = village.first + village_sigma * Vec2(random.normal(), random.normal());
-          yaw = village.second + (random.uniform01() < 0.5 ? 0.0 : 0.5 * kPi) + random.normal(0.0, 0.05);
+          const double dy = random.normal(), dx = random.normal();
+          b.centre = village.first + village_sigma * Vec2(dx, dy);
+          const double turn = random.uniform01() < 0.5 ? 0.0 : 0.5 * kPi;
+          yaw = village.second + turn + random.normal(0.0, 0.05);
         } else {
-          b.centre = Vec2(random.uniform(bounds.min_x, bounds.max_x), random.uniform(bounds.min_y, bounds.max_y));
+          const double y = random.uniform(bounds.min_y, bounds.max_y);
+          b.centre = Vec2(random.uniform(bounds.min_x, bounds.max_x), y);
           yaw = random.uniform(0.0, kPi);
         }
         const double a = random.uniform(options.building_min_size_m, options.building_max_size_m);
@@ -672,10 +683,7 @@ inline Landscape make_landscape(const TerrainOptions& options, const ChangeOptio
     const auto new_villages = static_cast<std::size_t>(std::llround(changes.new_villages_per_km2 * area_km2));
     for (int e = 1; e < epoch_count; ++e) {
       // Housing estates: new buildings cluster in the new villages as much as in the old ones.
-      for (std::size_t v = 0; v < new_villages; ++v)
-        villages.emplace_back(Vec2(bounds.min_x + width_m * random.uniform(0.1, 0.9),
-                                   bounds.min_y + height_m * random.uniform(0.1, 0.9)),
-                              random.uniform(0.0, kPi));
+      for (std::size_t v = 0; v < new_villages; ++v) new_village();
       for (Building& b : land.buildings)
         if (b.exists_in(e) && b.first_epoch < e && random.uniform01() < changes.removed_building_fraction)
           b.last_epoch = e - 1;
