@@ -41,18 +41,22 @@ inline Block make_block(std::uint64_t seed, int points = 400, double noise_px = 
     const double spacing = 0.7 * 300 * height / (e == 0 ? 265.0 : 420.0);
     for (int r = 0; r < rows; ++r)
       for (int c = 0; c < columns; ++c) {
-        const Vec3 centre((c - 0.5 * (columns - 1)) * base + 3.0 * normal(random),
-                          (r - 0.5 * (rows - 1)) * spacing + 3.0 * normal(random), height + 3.0 * normal(random));
-        const Pose pose = Pose::from_yaw_pitch_roll(centre, (e == 0 ? 0.0 : 0.2) + 0.03 * normal(random),
-                                                    0.017 * normal(random), 0.017 * normal(random));
+        // One draw per statement, the last argument first: the order of a call's arguments is
+        // unspecified (core/random.hpp, "Order of draws"); this is the order the block was made with.
+        const double cz = height + 3.0 * normal(random), cy = (r - 0.5 * (rows - 1)) * spacing + 3.0 * normal(random);
+        const Vec3 centre((c - 0.5 * (columns - 1)) * base + 3.0 * normal(random), cy, cz);
+        const double roll = 0.017 * normal(random), pitch = 0.017 * normal(random);
+        const Pose pose = Pose::from_yaw_pitch_roll(centre, (e == 0 ? 0.0 : 0.2) + 0.03 * normal(random), pitch, roll);
         b.truth.emplace_back(e == 0 ? camera0 : camera1, pose);
         b.epoch.push_back(e);
         if (e == 0) {
           // The epoch's own orientation: a few metres and about 0.2 degrees off.
-          const Vec3 small(0.004 * normal(random), 0.004 * normal(random), 0.004 * normal(random));
+          const double sz = 0.004 * normal(random), sy = 0.004 * normal(random);
+          const Vec3 small(0.004 * normal(random), sy, sz);
           const Mat3 turn = Eigen::AngleAxisd(small.norm(), small.normalized()).toRotationMatrix();
-          b.estimated.emplace_back(estimated0, Pose(pose.cam_from_world_rotation() * turn,
-                                                    centre + Vec3(4.0 * normal(random), 4.0 * normal(random), 3.0 * normal(random))));
+          const double oz = 3.0 * normal(random), oy = 4.0 * normal(random);
+          const Vec3 offset(4.0 * normal(random), oy, oz);
+          b.estimated.emplace_back(estimated0, Pose(pose.cam_from_world_rotation() * turn, centre + offset));
         } else {
           b.estimated.push_back(b.truth.back());
         }
@@ -68,7 +72,8 @@ inline Block make_block(std::uint64_t seed, int points = 400, double noise_px = 
     for (std::size_t i = 0; i < b.truth.size(); ++i) {
       const auto px = b.truth[i].project(p);
       if (!px || !b.truth[i].in_image(*px)) continue;
-      seen[b.epoch[i]].push_back({static_cast<int>(i), *px + noise_px * Vec2(normal(random), normal(random))});
+      const double ny = normal(random);  // y before x, as above
+      seen[b.epoch[i]].push_back({static_cast<int>(i), *px + noise_px * Vec2(normal(random), ny)});
     }
     b.ground.push_back(p);
     for (int e = 0; e < 2; ++e)

@@ -45,8 +45,12 @@ TEST_CASE("Similarity2Estimator: exact recovery from a minimal sample", "[geomet
     for (double scale : {0.01, 0.1, 1.0, 10.0, 100.0}) {
       const Similarity2 truth{scale, angle, {random.uniform(-500, 500), random.uniform(-500, 500)}};
       for (int trial = 0; trial < 5; ++trial) {
-        const auto sample = sample_of(truth, {random.uniform(0, 4000), random.uniform(0, 3000)},
-                                      {random.uniform(0, 4000), random.uniform(0, 3000)});
+        // One draw per statement, b before a and y before x: the order of a call's arguments is
+        // unspecified (core/random.hpp, "Order of draws"); this is the order the tests were written
+        // with.
+        const Eigen::Vector2d b{random.uniform(0, 4000), random.uniform(0, 3000)};
+        const Eigen::Vector2d a{random.uniform(0, 4000), random.uniform(0, 3000)};
+        const auto sample = sample_of(truth, a, b);
         REQUIRE_FALSE(estimator.degenerate(sample));
         const auto models = estimator.minimal(sample);
         REQUIRE(models.size() == 1);
@@ -59,7 +63,8 @@ TEST_CASE("Similarity2Estimator: exact recovery from a minimal sample", "[geomet
         for (const auto& pair : sample)
           CHECK(estimator.residual(model, pair) < 1e-9 * scale * 4000);
         // Every other point of the same transform fits too.
-        const Eigen::Vector2d x(random.uniform(0, 4000), random.uniform(0, 3000));
+        const double xy = random.uniform(0, 3000);
+        const Eigen::Vector2d x(random.uniform(0, 4000), xy);
         CHECK(estimator.residual(model, {x, truth(x)}) < 1e-9 * scale * 4000);
       }
     }
@@ -75,15 +80,15 @@ TEST_CASE("Similarity2Estimator: UTM coordinates keep sub-micrometre residuals",
     const Similarity2 rotate{1.0002, angle, {0, 0}};
     const Similarity2 truth{1.0002, angle, utm - rotate(utm) + Eigen::Vector2d(7, -3)};
     for (int trial = 0; trial < 20; ++trial) {
-      const Eigen::Vector2d a =
-          utm + Eigen::Vector2d(random.uniform(-2e3, 2e3), random.uniform(-2e3, 2e3));
-      const Eigen::Vector2d b =
-          utm + Eigen::Vector2d(random.uniform(-2e3, 2e3), random.uniform(-2e3, 2e3));
+      const double ay = random.uniform(-2e3, 2e3);
+      const Eigen::Vector2d a = utm + Eigen::Vector2d(random.uniform(-2e3, 2e3), ay);
+      const double by = random.uniform(-2e3, 2e3);
+      const Eigen::Vector2d b = utm + Eigen::Vector2d(random.uniform(-2e3, 2e3), by);
       const auto models = estimator.minimal(sample_of(truth, a, b));
       REQUIRE(models.size() == 1);
       for (int k = 0; k < 10; ++k) {
-        const Eigen::Vector2d x =
-            utm + Eigen::Vector2d(random.uniform(-2e3, 2e3), random.uniform(-2e3, 2e3));
+        const double xy = random.uniform(-2e3, 2e3);
+        const Eigen::Vector2d x = utm + Eigen::Vector2d(random.uniform(-2e3, 2e3), xy);
         worst = std::max(worst, estimator.residual(models[0], {x, truth(x)}));
       }
     }
@@ -151,8 +156,10 @@ TEST_CASE("Similarity2Estimator: refine is weighted least squares", "[geometry]"
   const Similarity2 truth{1.7, 2.8, {-30, 40}};
   std::vector<PointPair2> data;
   for (int i = 0; i < 30; ++i) {
-    const Eigen::Vector2d x(random.uniform(0, 1000), random.uniform(0, 1000));
-    data.push_back({x, truth(x) + Eigen::Vector2d(random.normal(), random.normal())});
+    const double xy = random.uniform(0, 1000);
+    const Eigen::Vector2d x(random.uniform(0, 1000), xy);
+    const double ny = random.normal();
+    data.push_back({x, truth(x) + Eigen::Vector2d(random.normal(), ny)});
   }
   const Similarity2Estimator estimator;
   const diachron::Subset<PointPair2> all(data.data(), data.size());
@@ -193,8 +200,10 @@ TEST_CASE("Similarity2Estimator: options (symmetric scale, rigid, check())", "[g
   const Similarity2 truth{3.0, -0.4, {5, 5}};
   std::vector<PointPair2> forward, backward;
   for (int i = 0; i < 30; ++i) {
-    const Eigen::Vector2d x(random.uniform(0, 100), random.uniform(0, 100));
-    const Eigen::Vector2d y = truth(x) + 2.0 * Eigen::Vector2d(random.normal(), random.normal());
+    const double xy = random.uniform(0, 100);
+    const Eigen::Vector2d x(random.uniform(0, 100), xy);
+    const double ny = random.normal();
+    const Eigen::Vector2d y = truth(x) + 2.0 * Eigen::Vector2d(random.normal(), ny);
     forward.push_back({x, y});
     backward.push_back({y, x});
   }

@@ -30,13 +30,17 @@ std::vector<CamerasJsonImage> random_images() {
   RandomStream rng(21, 0);
   std::vector<CamerasJsonImage> out;
   for (int i = 0; i < 5; ++i) {
-    const Camera<FraserAffine> camera(rng.uniform(900.0, 1100.0), rng.uniform(790.0, 810.0), rng.uniform(590.0, 610.0),
-                                      1600, 1200,
-                                      {rng.uniform(-0.1, 0.1), rng.uniform(-0.01, 0.01), rng.uniform(-1e-3, 1e-3),
-                                       rng.uniform(-1e-3, 1e-3), rng.uniform(-1e-3, 1e-3), rng.uniform(-2.0, 2.0),
-                                       rng.uniform(-1.0, 1.0)});
-    const Pose pose = Pose::from_yaw_pitch_roll(Vec3(rng.uniform(-1e5, 1e5), rng.uniform(4e6, 5e6), 1500.0 + i),
-                                                rng.uniform(-3.0, 3.0), rng.uniform(-0.05, 0.05), rng.uniform(-0.05, 0.05));
+    // One draw per statement, the last argument first (the parameters, cy, cx, f; then roll, pitch,
+    // yaw, y, x): the order of a call's arguments is unspecified (core/random.hpp, "Order of draws").
+    const Camera<FraserAffine>::Params params = {rng.uniform(-0.1, 0.1),   rng.uniform(-0.01, 0.01),
+                                                 rng.uniform(-1e-3, 1e-3), rng.uniform(-1e-3, 1e-3),
+                                                 rng.uniform(-1e-3, 1e-3), rng.uniform(-2.0, 2.0),
+                                                 rng.uniform(-1.0, 1.0)};
+    const double cy = rng.uniform(590.0, 610.0), cx = rng.uniform(790.0, 810.0);
+    const Camera<FraserAffine> camera(rng.uniform(900.0, 1100.0), cx, cy, 1600, 1200, params);
+    const double roll = rng.uniform(-0.05, 0.05), pitch = rng.uniform(-0.05, 0.05), yaw = rng.uniform(-3.0, 3.0);
+    const double y = rng.uniform(4e6, 5e6);
+    const Pose pose = Pose::from_yaw_pitch_roll(Vec3(rng.uniform(-1e5, 1e5), y, 1500.0 + i), yaw, pitch, roll);
     out.push_back(CamerasJsonImage::from_frame("e" + std::to_string(i % 2 + 1) + "_img \"" + std::to_string(i) + "\"",
                                                "e" + std::to_string(i % 2 + 1), Frame<FraserAffine>(camera, pose)));
   }

@@ -44,8 +44,12 @@ std::string read_file(const std::string& path) {
   return buffer.str();
 }
 
+// One draw per statement, the last argument first (z, y, x, then the rotation): the order of a
+// call's arguments is unspecified (core/random.hpp, "Order of draws"); the model was made so.
 Pose random_pose(RandomStream& random) {
-  return Pose(random_rotation(random), Vec3(random.uniform(-500, 500), random.uniform(-500, 500), random.uniform(100, 900)));
+  const double z = random.uniform(100, 900), y = random.uniform(-500, 500);
+  const Vec3 centre(random.uniform(-500, 500), y, z);
+  return Pose(random_rotation(random), centre);
 }
 
 // A small model with every supported camera model, an image without 2D points, 2D points with and
@@ -79,15 +83,18 @@ ColmapModel sample_model() {
   for (const auto& images : tracks) {
     ColmapPoint3D p;
     p.id = point_id;
-    p.xyz = Vec3(random.uniform(-100, 100), random.uniform(-100, 100), random.uniform(0, 50));
+    const double z = random.uniform(0, 50), y = random.uniform(-100, 100);
+    p.xyz = Vec3(random.uniform(-100, 100), y, z);
     p.rgb = {static_cast<std::uint8_t>(point_id), 20, 255};
     p.error = 0.125 * static_cast<double>(point_id);
     for (std::uint32_t image_id : images) {
       ColmapImage& image = m.images.at(image_id);
       // A 2D point without a 3D point first, so indices are not the point order.
-      image.points2d.push_back({Vec2(random.uniform(0, 400), random.uniform(0, 300)), kColmapNoPoint3D});
+      const double free_y = random.uniform(0, 300);
+      image.points2d.push_back({Vec2(random.uniform(0, 400), free_y), kColmapNoPoint3D});
       p.track.push_back({image_id, static_cast<std::uint32_t>(image.points2d.size())});
-      image.points2d.push_back({Vec2(random.uniform(0, 400), random.uniform(0, 300)), static_cast<std::int64_t>(point_id)});
+      const double tied_y = random.uniform(0, 300);
+      image.points2d.push_back({Vec2(random.uniform(0, 400), tied_y), static_cast<std::int64_t>(point_id)});
     }
     m.points3d[p.id] = p;
     point_id += 3;
@@ -212,7 +219,9 @@ TEST_CASE("colmap_text: a diachron camera and pose project where COLMAP's formul
       const Frame<FraserAffine> frame(converted.model, image.pose);
       for (int k = 0; k < 20; ++k) {
         // Points in front of the camera, spread over the image.
-        const Vec3 cam(random.uniform(-0.6, 0.6), random.uniform(-0.45, 0.45), 1.0);
+        // One draw per statement, y before x (core/random.hpp, "Order of draws").
+        const double y = random.uniform(-0.45, 0.45);
+        const Vec3 cam(random.uniform(-0.6, 0.6), y, 1.0);
         const Vec3 world = image.pose.world_from_cam(cam * random.uniform(50, 500));
         const std::optional<Vec2> px = frame.project(world);
         REQUIRE(px);

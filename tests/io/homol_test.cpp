@@ -40,9 +40,12 @@ void write_text(const std::string& path, const std::string& text) {
 PointMatches random_matches(std::size_t n, std::uint64_t seed) {
   diachron::RandomStream rng(seed);
   PointMatches out;
-  for (std::size_t i = 0; i < n; ++i)
-    out.push_back(PointMatch{Eigen::Vector2d(rng.uniform(-0.5, 4000), rng.uniform(-0.5, 3000)),
-                             Eigen::Vector2d(rng.uniform(-0.5, 6000), rng.uniform(-0.5, 5000)), 0.0});
+  for (std::size_t i = 0; i < n; ++i) {
+    // One draw per statement, each y before its x: the order of a call's arguments is unspecified
+    // (core/random.hpp, "Order of draws"); the braces take the first point before the second.
+    const double ay = rng.uniform(-0.5, 3000), ax = rng.uniform(-0.5, 4000), by = rng.uniform(-0.5, 5000);
+    out.push_back(PointMatch{Eigen::Vector2d(ax, ay), Eigen::Vector2d(rng.uniform(-0.5, 6000), by), 0.0});
+  }
   // Values that print badly with a fixed number of decimals.
   out.push_back(PointMatch{Eigen::Vector2d(1.0 / 3.0, 1e-9), Eigen::Vector2d(12345.678901234567, 0.1), 0.0});
   return out;

@@ -47,8 +47,11 @@ struct Texture {
       waves.push_back({2.0 * diachron::kPi / wavelength * Eigen::Vector2d(std::cos(angle), std::sin(angle)),
                        rng.uniform(0.0, 2.0 * diachron::kPi), rng.uniform(0.4, 1.0)});
     }
+    // One draw per statement, sigma then y then x: the order of a call's arguments is unspecified
+    // (core/random.hpp, "Order of draws").
     for (int i = 0; i < 200; ++i) {
-      blobs.emplace_back(rng.uniform(-50.0, 450.0), rng.uniform(-50.0, 450.0), rng.uniform(2.0, 5.0));
+      const double sigma = rng.uniform(2.0, 5.0), y = rng.uniform(-50.0, 450.0);
+      blobs.emplace_back(rng.uniform(-50.0, 450.0), y, sigma);
       blob_amplitude.push_back(rng.uniform(-3.0, 3.0));
     }
   }
@@ -370,7 +373,10 @@ TEST_CASE("correlation matching is deterministic for any thread count", "[correl
   const Scene scene(affine, 300);
   diachron::RandomStream rng(3);
   std::vector<Eigen::Vector2d> points;
-  for (int i = 0; i < 150; ++i) points.emplace_back(rng.uniform(0.0, 200.0), rng.uniform(0.0, 200.0));
+  for (int i = 0; i < 150; ++i) {
+    const double y = rng.uniform(0.0, 200.0);  // y before x, see Texture
+    points.emplace_back(rng.uniform(0.0, 200.0), y);
+  }
   const auto transfer = diachron::make_map_transfer(
       [&](const Eigen::Vector2d& p) { return Eigen::Vector2d(scene.truth(p) + Eigen::Vector2d(2.0, -1.5)); });
   CorrelationMatchOptions one = options_with(CorrelationMeasure::orientation), two = one;

@@ -171,8 +171,11 @@ void make_scene(const Map& secondary_from_master, std::size_t n, std::size_t dis
   master.descriptors.resize(static_cast<Eigen::Index>(n), dim);
   secondary.descriptors.resize(static_cast<Eigen::Index>(n + distractors), dim);
   const auto transfer = diachron::make_map_transfer(secondary_from_master);
+  // One draw per statement, y before x: the order of a call's arguments is unspecified
+  // (core/random.hpp, "Order of draws").
   for (std::size_t i = 0; i < n; ++i) {
-    const Eigen::Vector2d x(rng.uniform(0, 800), rng.uniform(0, 600));
+    const double py = rng.uniform(0, 600);
+    const Eigen::Vector2d x(rng.uniform(0, 800), py);
     // A few keypoints without orientation or scale exercise the gate skips.
     const double scale = i % 17 == 0 ? 0.0 : rng.uniform(2, 30);
     const double angle = i % 13 == 0 ? -1.0 : rng.uniform(0, 2 * kPi);
@@ -184,11 +187,18 @@ void make_scene(const Map& secondary_from_master, std::size_t n, std::size_t dis
     Keypoint k;
     const std::size_t src = j < n ? j : rng.uniform_index(n);
     const Prediction p = oracle_predict(transfer, master.keypoints[src].position);
-    const Eigen::Vector2d at = p.valid ? p.at : Eigen::Vector2d(rng.uniform(0, 800), rng.uniform(0, 600));
+    Eigen::Vector2d at;
+    if (p.valid) {
+      at = p.at;
+    } else {
+      const double ay = rng.uniform(0, 600);
+      at = Eigen::Vector2d(rng.uniform(0, 800), ay);
+    }
     // Images of the master keypoints within a few px and within the gates most of the time; the
     // distractors sit near a random master keypoint's image with a random look.
     const double spread = j < n ? 2.0 : 60.0;
-    k.position = at + Eigen::Vector2d(rng.normal(0, spread), rng.normal(0, spread));
+    const double dy = rng.normal(0, spread);
+    k.position = at + Eigen::Vector2d(rng.normal(0, spread), dy);
     const Keypoint& mk = master.keypoints[src];
     k.scale =
         j % 19 == 0 ? 0.0 : (j < n && mk.scale > 0 ? mk.scale * p.scale * rng.uniform(0.75, 1.25) : rng.uniform(2, 30));

@@ -41,7 +41,12 @@ void require_equal(const std::vector<IndexedNeighbor>& got, const std::vector<In
 
 std::vector<Vector2d> random_points(diachron::RandomStream& rng, std::size_t n, double extent) {
   std::vector<Vector2d> pts(n);
-  for (auto& p : pts) p = Vector2d(rng.uniform(0, extent), rng.uniform(0, extent));
+  // One draw per statement, y before x: the order of a call's arguments is unspecified
+  // (core/random.hpp, "Order of draws").
+  for (auto& p : pts) {
+    const double y = rng.uniform(0, extent);
+    p = Vector2d(rng.uniform(0, extent), y);
+  }
   return pts;
 }
 
@@ -54,7 +59,8 @@ TEST_CASE("PointIndex2D: radius, knn and box search equal brute force on random 
     const PointIndex2D index(pts);
     REQUIRE(index.size() == n);
     for (int trial = 0; trial < 60; ++trial) {
-      const Vector2d q(rng.uniform(-100, 1100), rng.uniform(-100, 1100));
+      const double qy = rng.uniform(-100, 1100);  // y before x, as in random_points
+      const Vector2d q(rng.uniform(-100, 1100), qy);
       const double r = rng.uniform(0, 200);
       INFO("n " << n << " trial " << trial);
       // The radius is a plain distance in pixels: a point at 150 px is found with radius 200.

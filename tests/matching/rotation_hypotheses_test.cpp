@@ -130,9 +130,13 @@ TEST_CASE("match_with_rotation_hypotheses: recovers a known quarter turn through
       o.threads = 2;
       auto matches = diachron::match_one_to_many(m, s, tiler, tiler, PatternMatcher{}, o).matches;
       // Outliers under every hypothesis: random pairs.
-      for (int i = 0; i < 40; ++i)
-        matches.push_back(PointMatch{Vector2d(junk.uniform(0, m.width()), junk.uniform(0, m.height())),
-                                     Vector2d(junk.uniform(0, s.width()), junk.uniform(0, s.height())), 0.0});
+      // One draw per statement, each y before its x: the order of a call's arguments is
+      // unspecified (core/random.hpp, "Order of draws").
+      for (int i = 0; i < 40; ++i) {
+        const double ay = junk.uniform(0, m.height()), ax = junk.uniform(0, m.width());
+        const double by = junk.uniform(0, s.height()), bx = junk.uniform(0, s.width());
+        matches.push_back(PointMatch{Vector2d(ax, ay), Vector2d(bx, by), 0.0});
+      }
       return matches;
     };
     diachron::RotationHypothesesOptions options;

@@ -30,8 +30,12 @@ diachron::Dsm synthetic_world(int w = 420, int h = 360) {
   diachron::Raster<float> z(w, h);
   diachron::RandomStream rng(11);
   std::vector<Eigen::Vector4d> bumps;
-  for (int i = 0; i < 120; ++i)
-    bumps.emplace_back(rng.uniform(0, w), rng.uniform(0, h), rng.uniform(4, 30), rng.uniform(-40, 60));
+  for (int i = 0; i < 120; ++i) {
+    // One draw per statement, the last argument first (height, radius, y, x): the order of a call's
+    // arguments is unspecified (core/random.hpp, "Order of draws"); the world was made so.
+    const double height = rng.uniform(-40, 60), radius = rng.uniform(4, 30), y = rng.uniform(0, h);
+    bumps.emplace_back(rng.uniform(0, w), y, radius, height);
+  }
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) {
       double v = 500.0 + 0.2 * x;

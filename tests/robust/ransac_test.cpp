@@ -236,9 +236,13 @@ TEST_CASE("Ransac: an all-outlier set ends with success == false", "[robust]") {
   // Random displacements in a 1000 x 1000 box: two agree within 1 with probability ~3e-6.
   std::vector<diachron::PointPair2> data;
   diachron::RandomStream rng(23, 0);
+  // One draw per statement, y before x: the order of a call's arguments is unspecified
+  // (core/random.hpp, "Order of draws").
   for (int i = 0; i < 50; ++i) {
-    const Eigen::Vector2d source(rng.uniform(0, 1000), rng.uniform(0, 1000));
-    data.push_back({source, source + Eigen::Vector2d(rng.uniform(-500, 500), rng.uniform(-500, 500))});
+    const double sy = rng.uniform(0, 1000);
+    const Eigen::Vector2d source(rng.uniform(0, 1000), sy);
+    const double dy = rng.uniform(-500, 500);
+    data.push_back({source, source + Eigen::Vector2d(rng.uniform(-500, 500), dy)});
   }
   RansacOptions options;
   options.threshold = 1.0;
@@ -251,7 +255,8 @@ TEST_CASE("Ransac: an all-outlier set ends with success == false", "[robust]") {
   CHECK(report.inliers.empty());
   // The same data with a consistent displacement added to 10 pairs succeed.
   for (int i = 0; i < 10; ++i) {
-    const Eigen::Vector2d source(rng.uniform(0, 1000), rng.uniform(0, 1000));
+    const double sy = rng.uniform(0, 1000);
+    const Eigen::Vector2d source(rng.uniform(0, 1000), sy);
     data.push_back({source, source + Eigen::Vector2d(30.0, -12.0)});
   }
   const auto found = Ransac<diachron_test::TranslationEstimator>(options).run(data);

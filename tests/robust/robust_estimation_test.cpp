@@ -36,12 +36,18 @@ std::vector<PointPair2> make_pairs2(std::size_t inliers, std::size_t outliers, d
   const Similarity2 truth = true_similarity();
   std::vector<PointPair2> pairs;
   for (std::size_t i = 0; i < inliers + outliers; ++i) {
-    const Eigen::Vector2d local(rng.uniform(0, kExtent), rng.uniform(0, kExtent));
-    Eigen::Vector2d target = i < inliers ? Eigen::Vector2d(truth(local) + Eigen::Vector2d(
-                                                               rng.normal(0, sigma),
-                                                               rng.normal(0, sigma)))
-                                         : Eigen::Vector2d(rng.uniform(-300, 1100),
-                                                           rng.uniform(-100, 1200));
+    // One draw per statement, y before x: the order of a call's arguments is unspecified
+    // (core/random.hpp, "Order of draws").
+    const double ly = rng.uniform(0, kExtent);
+    const Eigen::Vector2d local(rng.uniform(0, kExtent), ly);
+    Eigen::Vector2d target;
+    if (i < inliers) {
+      const double ny = rng.normal(0, sigma);
+      target = truth(local) + Eigen::Vector2d(rng.normal(0, sigma), ny);
+    } else {
+      const double ty = rng.uniform(-100, 1200);
+      target = Eigen::Vector2d(rng.uniform(-300, 1100), ty);
+    }
     // A far origin (UTM) moves both frames; the similarity's translation changes accordingly.
     pairs.push_back({local + origin, target + origin});
   }
@@ -71,14 +77,17 @@ std::vector<PointPair3> make_pairs3(std::size_t inliers, std::size_t outliers, d
   std::vector<PointPair3> pairs;
   for (std::size_t i = 0; i < inliers + outliers; ++i) {
     // Terrain-like: 1000 x 1000 m with 100 m of relief.
-    const Eigen::Vector3d source(rng.uniform(0, kExtent), rng.uniform(0, kExtent),
-                                 rng.uniform(0, 100));
-    const Eigen::Vector3d target =
-        i < inliers ? Eigen::Vector3d(truth(source) + Eigen::Vector3d(rng.normal(0, sigma),
-                                                                      rng.normal(0, sigma),
-                                                                      rng.normal(0, sigma)))
-                    : Eigen::Vector3d(rng.uniform(-400, 1200), rng.uniform(-100, 1300),
-                                      rng.uniform(-50, 200));
+    // One draw per statement, z then y then x, as in make_pairs2.
+    const double sz = rng.uniform(0, 100), sy = rng.uniform(0, kExtent);
+    const Eigen::Vector3d source(rng.uniform(0, kExtent), sy, sz);
+    Eigen::Vector3d target;
+    if (i < inliers) {
+      const double nz = rng.normal(0, sigma), ny = rng.normal(0, sigma);
+      target = truth(source) + Eigen::Vector3d(rng.normal(0, sigma), ny, nz);
+    } else {
+      const double tz = rng.uniform(-50, 200), ty = rng.uniform(-100, 1300);
+      target = Eigen::Vector3d(rng.uniform(-400, 1200), ty, tz);
+    }
     pairs.push_back({source, target});
   }
   return pairs;

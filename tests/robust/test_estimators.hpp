@@ -193,8 +193,11 @@ inline std::vector<Eigen::Vector2d> make_line_data(std::size_t inliers, std::siz
     const double x = rng.uniform(0.0, extent);
     points.emplace_back(x, slope * x + intercept + rng.normal(0.0, sigma));
   }
+  // One draw per statement, y before x: the order of a call's arguments is unspecified
+  // (core/random.hpp, "Order of draws").
   for (std::size_t i = 0; i < outliers; ++i) {
-    points.emplace_back(rng.uniform(0.0, extent), rng.uniform(0.0, extent));
+    const double y = rng.uniform(0.0, extent);
+    points.emplace_back(rng.uniform(0.0, extent), y);
   }
   return points;
 }
@@ -222,12 +225,16 @@ inline std::vector<diachron::PointPair2> similarity_pairs(std::size_t inliers,
   for (std::size_t k = 0; k < inliers + outliers; ++k) {
     const bool inlier = outliers_first ? k >= outliers : k < inliers;
     diachron::PointPair2 p;
-    p.source = Eigen::Vector2d(rng.uniform(0, 1000), rng.uniform(0, 1000));
+    // One draw per statement, y before x, as in make_line_data.
+    const double sy = rng.uniform(0, 1000);
+    p.source = Eigen::Vector2d(rng.uniform(0, 1000), sy);
     if (inlier) {
+      const double ny = rng.normal(0, 1);
       p.target = Eigen::Vector2d(c * p.source.x() - s * p.source.y() + 50 + rng.normal(0, 1),
-                                 s * p.source.x() + c * p.source.y() - 20 + rng.normal(0, 1));
+                                 s * p.source.x() + c * p.source.y() - 20 + ny);
     } else {
-      p.target = Eigen::Vector2d(rng.uniform(-500, 1500), rng.uniform(-500, 1500));
+      const double ty = rng.uniform(-500, 1500);
+      p.target = Eigen::Vector2d(rng.uniform(-500, 1500), ty);
     }
     data.push_back(p);
   }

@@ -28,9 +28,12 @@ inline diachron::Raster<std::uint8_t> textured(int w, int h, std::uint64_t seed)
     img += fine(cv::Rect(cell, cell, w, h)) * (cell == 40 ? 1.0 : 0.5);
   }
   for (int i = 0; i < w * h / 800; ++i) {
-    const cv::Point centre(static_cast<int>(rng.uniform(0, w)), static_cast<int>(rng.uniform(0, h)));
-    cv::circle(img, centre, static_cast<int>(rng.uniform(2, 12)), cv::Scalar(rng.uniform(-1.5, 1.5)), cv::FILLED,
-               cv::LINE_AA);
+    // One draw per statement, the last argument first (y before x, the value before the radius): the
+    // order of a call's arguments is unspecified (core/random.hpp, "Order of draws").
+    const int y = static_cast<int>(rng.uniform(0, h));
+    const cv::Point centre(static_cast<int>(rng.uniform(0, w)), y);
+    const double value = rng.uniform(-1.5, 1.5);
+    cv::circle(img, centre, static_cast<int>(rng.uniform(2, 12)), cv::Scalar(value), cv::FILLED, cv::LINE_AA);
   }
   cv::GaussianBlur(img, img, cv::Size(0, 0), 1.0);
   cv::Mat out;

@@ -49,9 +49,12 @@ struct Texture {
       waves.push_back({2.0 * diachron::kPi / wavelength * Eigen::Vector2d(std::cos(angle), std::sin(angle)),
                        rng.uniform(0.0, 2.0 * diachron::kPi), rng.uniform(0.5, 1.0)});
     }
-    for (int i = 0; i < 150; ++i)
-      blobs.push_back({Eigen::Vector2d(rng.uniform(-100.0, 500.0), rng.uniform(-100.0, 500.0)), rng.uniform(2.0, 6.0),
-                       rng.uniform(-3.0, 3.0)});
+    // One draw per statement where a call has several, y before x: the order of a call's arguments
+    // is unspecified (core/random.hpp, "Order of draws"). A braced list draws left to right.
+    for (int i = 0; i < 150; ++i) {
+      const double cy = rng.uniform(-100.0, 500.0);
+      blobs.push_back({Eigen::Vector2d(rng.uniform(-100.0, 500.0), cy), rng.uniform(2.0, 6.0), rng.uniform(-3.0, 3.0)});
+    }
   }
   double operator()(const Eigen::Vector2d& p) const {
     double v = 0.0;
@@ -129,7 +132,8 @@ struct Pair {
     std::vector<Eigen::Vector2d> out;
     for (double y = 30.0; y <= 230.0; y += 20.0)
       for (double x = 30.0; x <= 230.0; x += 20.0) {
-        const Eigen::Vector2d a(x + rng.uniform(-jitter, jitter), y + rng.uniform(-jitter, jitter));
+        const double dy = rng.uniform(-jitter, jitter);  // y before x, see Texture
+        const Eigen::Vector2d a(x + rng.uniform(-jitter, jitter), y + dy);
         const Eigen::Vector2d b = truth(a);
         if (b.minCoeff() > 40.0 && b.x() < 340.0 && b.y() < 340.0) out.push_back(a);
       }
@@ -174,7 +178,8 @@ TEST_CASE("NccValidator: agrees with a brute-force oracle through the local affi
   PointMatches matches;
   for (const Eigen::Vector2d& a : pair.points(2)) {
     // Off by up to 3 px: the NCC must be the one at b, whatever the transfer predicts.
-    matches.push_back({a, pair.truth(a) + Eigen::Vector2d(rng.uniform(-3, 3), rng.uniform(-3, 3)), 0.0});
+    const double dy = rng.uniform(-3, 3);  // y before x, see Texture
+    matches.push_back({a, pair.truth(a) + Eigen::Vector2d(rng.uniform(-3, 3), dy), 0.0});
   }
   REQUIRE(matches.size() > 50);
   NccOptions options;
@@ -329,8 +334,10 @@ TEST_CASE("NccValidator: deterministic whatever the threads", "[validation]") {
   diachron::RandomStream rng(13);
   PointMatches matches;
   for (int rep = 0; rep < 2; ++rep)
-    for (const Eigen::Vector2d& a : pair.points(7 + rep))
-      matches.push_back({a, pair.truth(a) + Eigen::Vector2d(rng.uniform(-6, 6), rng.uniform(-6, 6)), 0.0});
+    for (const Eigen::Vector2d& a : pair.points(7 + rep)) {
+      const double dy = rng.uniform(-6, 6);  // y before x, see Texture
+      matches.push_back({a, pair.truth(a) + Eigen::Vector2d(rng.uniform(-6, 6), dy), 0.0});
+    }
   NccOptions options;
   options.refine = true;
   options.threads = 1;

@@ -40,8 +40,12 @@ Raster<std::uint8_t> rectangles(int w, int h, std::uint64_t seed) {
   diachron::RandomStream rng(seed);
   cv::Mat img(h, w, CV_8U, cv::Scalar(128));
   for (int i = 0; i < w * h / 300; ++i) {
-    const cv::Point corner(static_cast<int>(rng.uniform(-20, w)), static_cast<int>(rng.uniform(-20, h)));
-    const cv::Size size(static_cast<int>(rng.uniform(4, 40)), static_cast<int>(rng.uniform(4, 40)));
+    // One draw per statement, the second argument first (y before x, height before width): the order
+    // of a call's arguments is unspecified (core/random.hpp, "Order of draws").
+    const int y = static_cast<int>(rng.uniform(-20, h));
+    const cv::Point corner(static_cast<int>(rng.uniform(-20, w)), y);
+    const int height = static_cast<int>(rng.uniform(4, 40));
+    const cv::Size size(static_cast<int>(rng.uniform(4, 40)), height);
     cv::rectangle(img, cv::Rect(corner, size), cv::Scalar(static_cast<int>(rng.uniform(0, 255))), cv::FILLED);
   }
   cv::GaussianBlur(img, img, cv::Size(0, 0), 0.7);

@@ -31,9 +31,15 @@ int main() {
   const diachron::Helmert3 truth{0.5, diachron::random_rotation(rng), {500000.0, 5000000.0, 100.0}};
   std::vector<diachron::PointPair3> pairs;
   for (int i = 0; i < 200; ++i) {
-    const Eigen::Vector3d x(rng.uniform(0, 1000), rng.uniform(0, 1000), rng.uniform(0, 100));
+    // One draw per statement, z before y before x: the order of a call's arguments is unspecified
+    // (diachron/core/random.hpp, "Order of draws").
+    const double pz = rng.uniform(0, 100), py = rng.uniform(0, 1000);
+    const Eigen::Vector3d x(rng.uniform(0, 1000), py, pz);
     Eigen::Vector3d y = truth(x);
-    if (i % 4 == 0) y += Eigen::Vector3d(rng.uniform(-50, 50), rng.uniform(-50, 50), rng.uniform(-50, 50));
+    if (i % 4 == 0) {
+      const double dz = rng.uniform(-50, 50), dy = rng.uniform(-50, 50);
+      y += Eigen::Vector3d(rng.uniform(-50, 50), dy, dz);
+    }
     pairs.push_back({x, y});
   }
   diachron::RansacOptions options;
