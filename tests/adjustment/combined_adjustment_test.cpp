@@ -56,7 +56,8 @@ std::vector<EpochPairMatches> true_matches(const Scene& s, std::uint64_t seed) {
       const auto px = e2.world_frame(q).project(t.world);
       if (!px || !e2.world_frame(q).in_image(*px)) continue;
       // One noisy pixel per epoch-2 image: two different ones would make the track conflict.
-      const Vec2 secondary = *px + Vec2(noise(random), noise(random));
+      const double ny = noise(random);  // y before x (core/random.hpp, "Order of draws")
+      const Vec2 secondary = *px + Vec2(noise(random), ny);
       for (const ImageObservation& o : t.observations)
         out[static_cast<std::size_t>(o.image) * e2.images.size() + q].matches.push_back({o.pixel, secondary, 1.0});
     }
@@ -222,7 +223,8 @@ TwoCameraEpoch2 two_camera_epoch2(const Scene& s) {
   const auto seen = [&](const Vec3& world, std::size_t q) -> std::optional<Vec2> {
     const auto px = out.epoch.frames[q].project(e2.epoch_from_world()(world));
     if (!px || !out.epoch.frames[q].in_image(*px)) return std::nullopt;
-    return *px + Vec2(noise(random), noise(random));
+    const double ny = noise(random);
+    return *px + Vec2(noise(random), ny);
   };
   for (const TiePoint& t : e2.tie_points) {
     std::vector<ImagePixel> tie;

@@ -95,7 +95,12 @@ TEST_CASE("build_tracks: equals the brute-force oracle on random tie points and 
     const int images = 6;
     // Few distinct pixels per image so observations collide and tracks chain.
     std::uniform_int_distribution<int> image(0, images - 1), coordinate(0, 6), length(1, 4), count(0, 25);
-    const auto draw = [&] { return ImagePixel{image(random), Eigen::Vector2d(coordinate(random), coordinate(random))}; };
+    // One draw per statement, y before x: the order of a call's arguments is unspecified
+    // (core/random.hpp, "Order of draws").
+    const auto draw = [&] {
+      const int i = image(random), y = coordinate(random);
+      return ImagePixel{i, Eigen::Vector2d(coordinate(random), y)};
+    };
     std::vector<std::vector<ImagePixel>> ties(static_cast<std::size_t>(count(random)));
     for (auto& t : ties) {
       const int n = length(random);

@@ -55,9 +55,11 @@ TEST_CASE("triangulate_track: pixel noise of 0.3 px moves the point by about a G
   for (int i = 0; i < n; ++i) {
     const Vec3 truth = frames[1].pose().centre() + Vec3(-60.0 + 2.5 * i, 20.0 - i, -500.0 - 0.4 * i);
     Track track;
-    for (int k = 0; k < 3; ++k)
-      track.observations.push_back({k, *frames[static_cast<std::size_t>(k)].project(truth) + Vec2(noise(random), noise(random)),
+    for (int k = 0; k < 3; ++k) {
+      const double ny = noise(random);  // y before x (core/random.hpp, "Order of draws")
+      track.observations.push_back({k, *frames[static_cast<std::size_t>(k)].project(truth) + Vec2(noise(random), ny),
                                     ObservationKind::intra_epoch});
+    }
     const TriangulationResult r = triangulate_track(frames, track);
     REQUIRE(r.success);
     CHECK(r.rms_px < 1.0);

@@ -72,23 +72,7 @@ RankedPairs ranked_pairs(std::size_t num_data, std::size_t top, std::size_t top_
   };
   part(top, top_inliers);
   part(num_data - top, rest_inliers);
-  const double c = 1.2 * std::cos(0.3), s = 1.2 * std::sin(0.3);  // as similarity_pairs
-  for (const bool inlier : ranked.in) {
-    diachron::PointPair2 p;
-    // One draw per statement, y before x: the order of a call's arguments is unspecified
-    // (core/random.hpp, "Order of draws").
-    const double sy = rng.uniform(0, 1000);
-    p.source = Eigen::Vector2d(rng.uniform(0, 1000), sy);
-    if (inlier) {
-      const double ny = rng.normal(0, 1);
-      p.target = Eigen::Vector2d(c * p.source.x() - s * p.source.y() + 50 + rng.normal(0, 1),
-                                 s * p.source.x() + c * p.source.y() - 20 + ny);
-    } else {
-      const double ty = rng.uniform(-500, 1500);
-      p.target = Eigen::Vector2d(rng.uniform(-500, 1500), ty);
-    }
-    ranked.data.push_back(p);
-  }
+  for (const bool inlier : ranked.in) ranked.data.push_back(diachron_test::similarity_pair(rng, inlier));
   return ranked;
 }
 

@@ -211,6 +211,26 @@ inline double line_error(const Line& line, double slope = 0.5, double intercept 
   return std::max(std::abs(y(0.0) - intercept), std::abs(y(extent) - (slope * extent + intercept)));
 }
 
+/// One pair of similarity_pairs(): an inlier of the similarity (scale 1.2, angle 0.3 rad, shift (50, -20))
+/// with Gaussian noise of 1 per coordinate, or an outlier with a target uniform in [-500, 1500]^2; the
+/// source uniform in [0, 1000]^2.
+inline diachron::PointPair2 similarity_pair(diachron::RandomStream& rng, bool inlier) {
+  const double c = 1.2 * std::cos(0.3), s = 1.2 * std::sin(0.3);
+  diachron::PointPair2 p;
+  // One draw per statement, y before x, as in make_line_data.
+  const double sy = rng.uniform(0, 1000);
+  p.source = Eigen::Vector2d(rng.uniform(0, 1000), sy);
+  if (inlier) {
+    const double ny = rng.normal(0, 1);
+    p.target = Eigen::Vector2d(c * p.source.x() - s * p.source.y() + 50 + rng.normal(0, 1),
+                               s * p.source.x() + c * p.source.y() - 20 + ny);
+  } else {
+    const double ty = rng.uniform(-500, 1500);
+    p.target = Eigen::Vector2d(rng.uniform(-500, 1500), ty);
+  }
+  return p;
+}
+
 /// Point pairs under target = 1.2 R(0.3) source + (50, -20): `inliers` with Gaussian noise of 1 px
 /// per coordinate, sources in [0, 1000]^2, and `outliers` with targets uniform in [-500, 1500]^2.
 /// Inliers come first, or last with `outliers_first` (as a tile without overlap at the head of a
@@ -221,23 +241,8 @@ inline std::vector<diachron::PointPair2> similarity_pairs(std::size_t inliers,
                                                           bool outliers_first = false) {
   diachron::RandomStream rng(seed, 7);
   std::vector<diachron::PointPair2> data;
-  const double c = 1.2 * std::cos(0.3), s = 1.2 * std::sin(0.3);
-  for (std::size_t k = 0; k < inliers + outliers; ++k) {
-    const bool inlier = outliers_first ? k >= outliers : k < inliers;
-    diachron::PointPair2 p;
-    // One draw per statement, y before x, as in make_line_data.
-    const double sy = rng.uniform(0, 1000);
-    p.source = Eigen::Vector2d(rng.uniform(0, 1000), sy);
-    if (inlier) {
-      const double ny = rng.normal(0, 1);
-      p.target = Eigen::Vector2d(c * p.source.x() - s * p.source.y() + 50 + rng.normal(0, 1),
-                                 s * p.source.x() + c * p.source.y() - 20 + ny);
-    } else {
-      const double ty = rng.uniform(-500, 1500);
-      p.target = Eigen::Vector2d(rng.uniform(-500, 1500), ty);
-    }
-    data.push_back(p);
-  }
+  for (std::size_t k = 0; k < inliers + outliers; ++k)
+    data.push_back(similarity_pair(rng, outliers_first ? k >= outliers : k < inliers));
   return data;
 }
 
