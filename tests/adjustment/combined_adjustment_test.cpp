@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <optional>
 #include <random>
 #include <vector>
@@ -126,10 +127,20 @@ TEST_CASE("combined_adjustment: Nominal, check points 3x closer than the rough H
   CHECK(after * 3.0 < before);
   CHECK(after < 1.5 * gsd_e2);
 
+  // The worst distortion error depends on the noise drawn: over noise seeds 1-8 it was 0.25 to 0.55 px
+  // (median 0.40), so one draw passes or fails by luck (the draws of another compiler, before the
+  // order of draws was fixed, gave 0.68). The median over seeds 1-5 is checked.
   const double distortion_before = distortion_difference(e1.frames[0].camera(), s.epochs[0].camera).max_px;
-  const double distortion_after = distortion_difference(r.epoch1[0].camera(), s.epochs[0].camera).max_px;
-  INFO("distortion " << distortion_before << " -> " << distortion_after << " px");
-  CHECK(distortion_after < 0.5);
+  std::vector<double> distortion_after{distortion_difference(r.epoch1[0].camera(), s.epochs[0].camera).max_px};
+  for (std::uint64_t seed = 2; seed <= 5; ++seed) {
+    const CombinedAdjustmentResult other = combined_adjustment(e1, e2, true_matches(s, seed), rough, options);
+    REQUIRE(other.report.success);
+    distortion_after.push_back(distortion_difference(other.epoch1[0].camera(), s.epochs[0].camera).max_px);
+  }
+  std::sort(distortion_after.begin(), distortion_after.end());
+  INFO("distortion " << distortion_before << " -> " << distortion_after[0] << " to " << distortion_after.back()
+                     << " px over 5 noise draws");
+  CHECK(distortion_after[2] < 0.5);
   // Epoch 2 is the fixed reference.
   for (std::size_t i = 0; i < e2.frames.size(); ++i)
     CHECK((r.epoch2[i].pose().centre() - e2.frames[i].pose().centre()).norm() == 0.0);
