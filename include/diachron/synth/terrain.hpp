@@ -402,6 +402,12 @@ inline bool clear_of_buildings(const std::vector<Building>& buildings, const Vec
   return true;
 }
 
+/// A point uniform over `bounds`, its y drawn before its x (core/random.hpp, "Order of draws").
+inline Vec2 uniform_point(RandomStream& random, const WorldBounds& bounds) {
+  const double y = random.uniform(bounds.min_y, bounds.max_y);
+  return Vec2(random.uniform(bounds.min_x, bounds.max_x), y);
+}
+
 /// Plants forest stands, hedgerows and single trees (VegetationOptions) and their history over
 /// the epochs (ChangeOptions): growth, cutting, clearing, new trees and young stands.
 inline void plant_trees(Landscape& land, const TerrainOptions& options, const ChangeOptions& changes,
@@ -433,9 +439,7 @@ inline void plant_trees(Landscape& land, const TerrainOptions& options, const Ch
     return true;
   };
   const auto stand = [&](int first_epoch, double height_scale) {
-    // One draw per statement, y before x (core/random.hpp, "Order of draws"), here and below.
-    const double centre_y = random.uniform(bounds.min_y, bounds.max_y);
-    const Vec2 centre(random.uniform(bounds.min_x, bounds.max_x), centre_y);
+    const Vec2 centre = uniform_point(random, bounds);
     const double radius = 0.5 * v.stand_diameter_m * random.uniform(0.6, 1.4);
     const std::uint64_t edge_seed = random.next_u64();
     const double mean_height = random.uniform(v.tree_min_height_m, v.tree_max_height_m);
@@ -444,6 +448,7 @@ inline void plant_trees(Landscape& land, const TerrainOptions& options, const Ch
     const int n = static_cast<int>(std::ceil(radius * 1.4 / s));
     for (int j = -n; j <= n; ++j)
       for (int i = -n; i <= n; ++i) {
+        // y before x (core/random.hpp, "Order of draws")
         const double jitter_y = random.uniform(-0.35, 0.35), jitter_x = random.uniform(-0.35, 0.35);
         const Vec2 xy = centre + s * Vec2(i + jitter_x, j + jitter_y);
         const Vec2 d = xy - centre;
@@ -465,8 +470,7 @@ inline void plant_trees(Landscape& land, const TerrainOptions& options, const Ch
   const auto hedgerow_count = static_cast<std::size_t>(std::llround(v.hedgerows_per_km2 * area_km2));
   std::vector<std::size_t> cuttable;
   for (std::size_t k = 0; k < hedgerow_count; ++k) {
-    const double start_y = random.uniform(bounds.min_y, bounds.max_y);
-    const Vec2 start(random.uniform(bounds.min_x, bounds.max_x), start_y);
+    const Vec2 start = uniform_point(random, bounds);
     const double azimuth = random.uniform(0.0, kPi);
     const Vec2 dir(std::cos(azimuth), std::sin(azimuth));
     const double length = v.hedgerow_length_m * random.uniform(0.5, 1.5);
@@ -479,8 +483,7 @@ inline void plant_trees(Landscape& land, const TerrainOptions& options, const Ch
   // Free-standing trees.
   const auto single_count = static_cast<std::size_t>(std::llround(v.single_trees_per_km2 * area_km2));
   const auto single = [&](int first_epoch, double height_scale) {
-    const double y = random.uniform(bounds.min_y, bounds.max_y);
-    const Vec2 xy(random.uniform(bounds.min_x, bounds.max_x), y);
+    const Vec2 xy = uniform_point(random, bounds);
     if (add_tree(xy, height_scale * random.uniform(v.tree_min_height_m, v.tree_max_height_m), first_epoch))
       cuttable.push_back(land.trees.size() - 1);
   };
@@ -648,8 +651,7 @@ inline Landscape make_landscape(const TerrainOptions& options, const ChangeOptio
           const double turn = random.uniform01() < 0.5 ? 0.0 : 0.5 * kPi;
           yaw = village.second + turn + random.normal(0.0, 0.05);
         } else {
-          const double y = random.uniform(bounds.min_y, bounds.max_y);
-          b.centre = Vec2(random.uniform(bounds.min_x, bounds.max_x), y);
+          b.centre = detail::uniform_point(random, bounds);
           yaw = random.uniform(0.0, kPi);
         }
         const double a = random.uniform(options.building_min_size_m, options.building_max_size_m);
