@@ -8,7 +8,7 @@
 //                         [--second-pass PX] [--cell PX] [--ground-gsd G] [--no-ncc] [--no-refine]
 //                         [--ncc-correlation] [--calm] [--calm-only changes,sun,cover,film]
 //                         [--max-relief G] [--relief-radius PX] [--preblur S1,S2] [--dump FILE]
-//                         [--affine-step PX]
+//                         [--affine-step PX] [--scan-scale K]
 //
 // --calm (a diagnostic): the same scenes without their decades, i.e. no landscape change between
 // the epochs and epoch 1 rendered with epoch 2's look (sun, land-cover response, no film defects);
@@ -17,7 +17,9 @@
 // their costs apart: changes (landscape change between the epochs), sun (epoch 1 under epoch 2's
 // sun), cover (epoch 2's land-cover response), film (epoch 2's tone, grain, scanner and dust, blur
 // and no JPEG). --preblur S1,S2 blurs each epoch's images (Gaussian sigma in its own px) before
-// matching. --dump FILE writes every final match of the methods run: positions, score, true error
+// matching. --scan-scale K (> 0) renders every epoch's images K times larger on the same footprints
+// (focal length times K, GSD divided by K), as a finer scan of the same photographs; the DSMs keep
+// their cell of 2 GSD and their errors in metres. --dump FILE writes every final match of the methods run: positions, score, true error
 // and its vector (epoch-2 px, NaN when the truth cannot decide), the truth's status, its residual
 // to the rough transfer's prediction, the correlation surface's second derivatives at the match
 // (hxx hxy hyy, per master px^2, from a quadratic fitted to the scores over +-2 master px) and the
@@ -92,6 +94,7 @@ struct Arguments {
   int corr_radius = -1, corr_window = -1, second_pass = -1, cell = -1;
   double min_score = std::nan(""), min_margin = std::nan("");
   double ground_gsd = std::nan("");
+  double scan_scale = 1.0;
   double max_relief = std::nan(""), relief_radius = std::nan(""), affine_step = std::nan("");
   bool no_ncc = false, no_refine = false, ncc_correlation = false, calm = false;
   std::vector<std::string> calm_only;
@@ -128,6 +131,13 @@ Arguments parse(int argc, char** argv) {
     else if (s == "--min-score") a.min_score = std::stod(value());
     else if (s == "--min-margin") a.min_margin = std::stod(value());
     else if (s == "--ground-gsd") a.ground_gsd = std::stod(value());
+    else if (s == "--scan-scale") {
+      a.scan_scale = std::stod(value());
+      if (!(a.scan_scale > 0.0) || !std::isfinite(a.scan_scale)) {
+        std::fprintf(stderr, "--scan-scale wants a factor > 0\n");
+        std::exit(1);
+      }
+    }
     else if (s == "--max-relief") a.max_relief = std::stod(value());
     else if (s == "--relief-radius") a.relief_radius = std::stod(value());
     else if (s == "--affine-step") a.affine_step = std::stod(value());
@@ -317,6 +327,11 @@ int main(int argc, char** argv) {
         look1.sun_elevation_deg = keep.sun_elevation_deg;
         look1.land_cover = keep.land_cover;
         look1.jpeg_quality = 0;
+      }
+      for (EpochOptions& epoch : scene_options.epochs) {
+        epoch.focal_px *= args.scan_scale;
+        epoch.image_width_px = static_cast<int>(std::lround(epoch.image_width_px * args.scan_scale));
+        epoch.image_height_px = static_cast<int>(std::lround(epoch.image_height_px * args.scan_scale));
       }
       auto t0 = std::chrono::steady_clock::now();
       const Scene scene = generate_scene(scene_options);

@@ -89,6 +89,10 @@ const char* kUsage =
     "  --ncc-threshold T                      least NCC of a kept match (default 0.6, MicMac's; the\n"
     "                                         correlation method runs no intensity NCC)\n"
     "  --no-refine                            keep the matcher's positions (no least-squares refinement)\n"
+    "  --ground-gsd G                         the ground filter's inlier threshold, GSD of the secondary\n"
+    "                                         image (default 3 for correlation, 10 for patch and\n"
+    "                                         guided, the paper's); larger for scans much finer than\n"
+    "                                         their DSMs' errors (docs/precise-matching.md)\n"
     "  --no-ground-filter                     skip the 3D Helmert RANSAC\n"
     "  --no-ncc                               skip the NCC validator\n"
     "  --no-pictures                          do not write pairs/*.png\n"
@@ -369,8 +373,8 @@ void write_residual_pictures(const std::string& dir, const EpochFolder& e1, Pict
 
 void write_report(const std::string& path, const EpochFolder& e1, const EpochFolder& e2,
                   const RoughCoregistrationReport& rough, const OverlappingPairsResult& overlap,
-                  const PreciseMatchingReport& precise, const std::string& method, const std::string& matcher,
-                  const std::string& adjustment_section = "") {
+                  const PreciseMatchingReport& precise, const PreciseMatchingOptions& options,
+                  const std::string& method, const std::string& matcher, const std::string& adjustment_section = "") {
   std::ofstream out(path);
   DIACHRON_CHECK(out.good(), "cannot write " << path);
   out.precision(10);
@@ -389,6 +393,11 @@ void write_report(const std::string& path, const EpochFolder& e1, const EpochFol
       << ", \"overlapping\": " << overlap.overlapping_pairs << ", \"kept\": " << overlap.pairs.size()
       << ", \"invalid_footprints\": [" << overlap.invalid_master_footprints << ", "
       << overlap.invalid_secondary_footprints << "], \"message\": " << quoted(overlap.message) << "},\n";
+  // The threshold the method used: correlation matches have their own (PreciseCorrelationOptions).
+  const double ground_gsd =
+      method == "correlation" ? options.correlation.ground_threshold_gsd : options.ground.threshold_gsd;
+  out << "  \"ground_filter\": {\"on\": " << (options.use_ground_filter ? "true" : "false")
+      << ", \"threshold_gsd\": " << ground_gsd << "},\n";
   out << "  \"precise_matching\": {\"success\": " << (precise.success ? "true" : "false")
       << ", \"message\": " << quoted(precise.message) << ", \"tentative\": " << precise.tentative
       << ", \"after_ground_filter\": " << precise.grounded << ", \"final\": " << precise.final_matches
@@ -422,6 +431,7 @@ int main(int argc, char** argv) {
   double min_overlap = 0.1;
   std::optional<int> cell;  // unset: the default cell
   std::optional<long long> max_points;  // unset: PreciseCorrelationOptions' bound
+  std::optional<double> ground_gsd;     // unset: the method's default threshold
   GeoTiffReadOptions dsm_read;
   std::size_t threads = 0;
 #if DIACHRON_MATCH_EPOCHS_ADJUST
@@ -455,6 +465,7 @@ int main(int argc, char** argv) {
       }
       else if (a == "--ncc-threshold") options.ncc.min_ncc = std::stod(value());
       else if (a == "--no-refine") options.ncc.refine = false;
+      else if (a == "--ground-gsd") ground_gsd = std::stod(value());
       else if (a == "--no-ground-filter") options.use_ground_filter = false;
       else if (a == "--no-ncc") options.use_ncc = false;
       else if (a == "--no-pictures") pictures = false;
@@ -501,6 +512,14 @@ int main(int argc, char** argv) {
     if (max_points) {
       DIACHRON_CHECK(*max_points >= 1, "--max-points wants at least 1 point per image, got " << *max_points);
       options.correlation.max_points_per_image = static_cast<std::size_t>(*max_points);
+    }
+    if (ground_gsd) {
+      DIACHRON_CHECK(std::isfinite(*ground_gsd) && *ground_gsd > 0.0,
+                     "--ground-gsd wants a threshold > 0 (GSD of the secondary image), got " << *ground_gsd);
+      DIACHRON_CHECK(options.use_ground_filter, "--ground-gsd and --no-ground-filter contradict each other");
+      // Correlation matches have their own, tighter threshold; the descriptor methods use the shared one.
+      if (method == "correlation") options.correlation.ground_threshold_gsd = *ground_gsd;
+      else options.ground.threshold_gsd = *ground_gsd;
     }
     DIACHRON_CHECK(matcher_name == "sift" || matcher_name == "rootsift" || matcher_name == "akaze" ||
                        matcher_name == "xfeat",
@@ -549,7 +568,7 @@ int main(int argc, char** argv) {
     overlap_options.min_overlap_fraction = min_overlap;
     PreciseMatchingReport precise;
     if (!rough.success) {
-      write_report(out_dir + "/report.json", e1, e2, rough, overlap, precise, method, matcher_name);
+      write_report(out_dir + "/report.json", e1, e2, rough, overlap, precise, options, method, matcher_name);
       std::printf("no co-registration: %s\n", rough.message.c_str());
       return 2;
     }
@@ -565,7 +584,7 @@ int main(int argc, char** argv) {
     std::printf("overlapping pairs: %zu of %zu candidates (%s)\n", overlap.pairs.size(), overlap.candidate_pairs,
                 overlap.message.c_str());
     if (overlap.pairs.empty()) {
-      write_report(out_dir + "/report.json", e1, e2, rough, overlap, precise, method, matcher_name);
+      write_report(out_dir + "/report.json", e1, e2, rough, overlap, precise, options, method, matcher_name);
       std::printf("no overlapping pair: %s\n", overlap.message.c_str());
       return 2;
     }
@@ -599,7 +618,7 @@ int main(int argc, char** argv) {
     }
 
     // 4. Outputs.
-    write_report(out_dir + "/report.json", e1, e2, rough, overlap, precise, method, matcher_name);
+    write_report(out_dir + "/report.json", e1, e2, rough, overlap, precise, options, method, matcher_name);
     const std::string homol = out_dir + "/Homol";
     make_folder(homol, "match_epochs");
     if (names.renamed) write_homol_names(out_dir + "/homol_names.txt", e1, e2, names);
@@ -647,7 +666,7 @@ int main(int argc, char** argv) {
       const BundleReport& r = adjusted.report;
       std::printf("adjustment: %s\n", r.message.c_str());
       if (!r.success) {
-        write_report(out_dir + "/report.json", e1, e2, rough, overlap, precise, method, matcher_name,
+        write_report(out_dir + "/report.json", e1, e2, rough, overlap, precise, options, method, matcher_name,
                      adjustment_json(adjusted, names, nullptr, adjustment_options.bundle.affine_scope));
         std::printf("no adjustment: %s\n", r.message.c_str());
         return 2;
@@ -668,7 +687,7 @@ int main(int argc, char** argv) {
       export_options.protected_folders = {dir1, dir2};
       const AdjustedExportReport exported = write_adjusted_export(images, out_dir, export_options);
       if (pictures) write_residual_pictures(out_dir + "/adjusted/residuals", e1, pictures1, adjusted);
-      write_report(out_dir + "/report.json", e1, e2, rough, overlap, precise, method, matcher_name,
+      write_report(out_dir + "/report.json", e1, e2, rough, overlap, precise, options, method, matcher_name,
                    adjustment_json(adjusted, names, &exported, adjustment_options.bundle.affine_scope));
       std::printf("reprojection RMS %.3f -> %.3f px (inter-epoch %.3f -> %.3f px); wrote %s and %s "
                   "(largest COLMAP conversion error %.3f px)\n",

@@ -4,7 +4,8 @@
 # tie point under the documented e1_ / e2_ names, and list the names in homol_names.txt; the inputs
 # (renamed here, before the run) stay as they were. A sparse point grid keeps it short: the names are
 # the point, not the number of matches. The grid is asked for as a bound of 1875 points per image,
-# which on 800 x 600 px is 16 px cells exactly; report.json must say that cell.
+# which on 800 x 600 px is 16 px cells exactly; report.json must say that cell. The ground filter's
+# threshold is asked for too (--ground-gsd 4), and report.json must say it was used.
 #   cmake -DMAKE_SCENE=... -DMATCH_EPOCHS=... -DWORK=... -P match_epochs_names.cmake
 include("${CMAKE_CURRENT_LIST_DIR}/scene_folders.cmake")
 fresh_scene("${WORK}" --image-size 800x600 --images-per-epoch 2x2 --seed 1)
@@ -22,6 +23,7 @@ endforeach()
 file(WRITE "${e2}/images.txt" "${images}")
 folder_fingerprint("${WORK}/scene" before)
 execute_process(COMMAND "${MATCH_EPOCHS}" "${WORK}/scene/e1" "${e2}" --out "${WORK}/out" --no-pictures --max-points 1875
+                        --ground-gsd 4
                 RESULT_VARIABLE status OUTPUT_VARIABLE out ERROR_VARIABLE err)
 if(NOT status EQUAL 0)
   message(FATAL_ERROR "match_epochs exited with ${status}, expected 0\n${out}\n${err}")
@@ -60,6 +62,9 @@ foreach(c IN LISTS cells)
     message(FATAL_ERROR "--max-points 1875 on 800 x 600 px images gave '${c}', expected 16 px cells")
   endif()
 endforeach()
+if(NOT report MATCHES "\"ground_filter\": {\"on\": true, \"threshold_gsd\": 4}")
+  message(FATAL_ERROR "report.json does not give the ground filter's threshold as 4 GSD")
+endif()
 folder_fingerprint("${WORK}/scene" after)
 if(NOT before STREQUAL after)
   message(FATAL_ERROR "match_epochs changed its input folders")
