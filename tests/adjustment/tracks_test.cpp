@@ -3,7 +3,6 @@
 
 #include <algorithm>
 #include <cstdint>
-#include <random>
 #include <set>
 #include <tuple>
 #include <vector>
@@ -12,6 +11,7 @@
 
 #include <diachron/adjustment/tracks.hpp>
 #include <diachron/core/error.hpp>
+#include <diachron/core/random.hpp>
 
 using namespace diachron;
 
@@ -90,23 +90,27 @@ std::multiset<std::vector<Obs>> oracle(const std::vector<std::vector<ImagePixel>
 }  // namespace
 
 TEST_CASE("build_tracks: equals the brute-force oracle on random tie points and matches", "[adjustment]") {
-  std::mt19937_64 random(7);
+  RandomStream random(7);
   for (int round = 0; round < 30; ++round) {
     const int images = 6;
     // Few distinct pixels per image so observations collide and tracks chain.
-    std::uniform_int_distribution<int> image(0, images - 1), coordinate(0, 6), length(1, 4), count(0, 25);
+    const auto in = [&random](int lo, int hi) { return lo + static_cast<int>(random.uniform_index(static_cast<std::size_t>(hi - lo + 1))); };
+    const auto image = [&] { return in(0, images - 1); };
+    const auto coordinate = [&] { return in(0, 6); };
+    const auto length = [&] { return in(1, 4); };
+    const auto count = [&] { return in(0, 25); };
     // One draw per statement, y before x: the order of a call's arguments is unspecified
     // (core/random.hpp, "Order of draws").
     const auto draw = [&] {
-      const int i = image(random), y = coordinate(random);
-      return ImagePixel{i, Eigen::Vector2d(coordinate(random), y)};
+      const int i = image(), y = coordinate();
+      return ImagePixel{i, Eigen::Vector2d(coordinate(), y)};
     };
-    std::vector<std::vector<ImagePixel>> ties(static_cast<std::size_t>(count(random)));
+    std::vector<std::vector<ImagePixel>> ties(static_cast<std::size_t>(count()));
     for (auto& t : ties) {
-      const int n = length(random);
+      const int n = length();
       for (int k = 0; k < n; ++k) t.push_back(draw());
     }
-    std::vector<ImageMatch> matches(static_cast<std::size_t>(count(random)));
+    std::vector<ImageMatch> matches(static_cast<std::size_t>(count()));
     for (auto& m : matches) m = ImageMatch{draw(), draw()};
 
     const TrackSet built = build_tracks(ties, matches, images);

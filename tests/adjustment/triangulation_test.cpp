@@ -3,12 +3,12 @@
 
 #include <cmath>
 #include <optional>
-#include <random>
 #include <vector>
 
 #include <diachron/adjustment/triangulation.hpp>
 #include <diachron/camera/frame.hpp>
 #include <diachron/core/error.hpp>
+#include <diachron/core/random.hpp>
 
 #include "adjustment/catch_ceres.hpp"  // last: gives CHECK back to Catch after glog
 
@@ -48,16 +48,16 @@ TEST_CASE("triangulate_point: noise-free views give the point back", "[adjustmen
 
 TEST_CASE("triangulate_track: pixel noise of 0.3 px moves the point by about a GSD", "[adjustment]") {
   const auto frames = strip(3);
-  std::mt19937_64 random(3);
-  std::normal_distribution<double> noise(0.0, 0.3);
+  RandomStream random(3);
+  const auto noise = [&random] { return random.normal(0.0, 0.3); };
   double sum_squared = 0.0;
   const int n = 50;
   for (int i = 0; i < n; ++i) {
     const Vec3 truth = frames[1].pose().centre() + Vec3(-60.0 + 2.5 * i, 20.0 - i, -500.0 - 0.4 * i);
     Track track;
     for (int k = 0; k < 3; ++k) {
-      const double ny = noise(random);  // y before x (core/random.hpp, "Order of draws")
-      track.observations.push_back({k, *frames[static_cast<std::size_t>(k)].project(truth) + Vec2(noise(random), ny),
+      const double ny = noise();  // y before x (core/random.hpp, "Order of draws")
+      track.observations.push_back({k, *frames[static_cast<std::size_t>(k)].project(truth) + Vec2(noise(), ny),
                                     ObservationKind::intra_epoch});
     }
     const TriangulationResult r = triangulate_track(frames, track);

@@ -2,13 +2,13 @@
 // f sigma r^3 at the corner; the first-order propagation against a Monte-Carlo oracle (intrinsics
 // drawn from the covariance, the spread of d at the worst pixel measured); bad input.
 #include <cmath>
-#include <random>
 #include <vector>
 
 #include <catch2/catch.hpp>
 
 #include <diachron/camera/camera.hpp>
 #include <diachron/core/error.hpp>
+#include <diachron/core/random.hpp>
 #include <diachron/eval/distortion_precision.hpp>
 
 using namespace diachron;
@@ -71,13 +71,12 @@ TEST_CASE("distortion_precision: the first-order propagation against a Monte-Car
   const Eigen::LLT<Eigen::Matrix<double, 8, 8>> llt(cov);
   REQUIRE(llt.info() == Eigen::Success);  // a covariance, positive definite
   const Eigen::Matrix<double, 8, 8> l = llt.matrixL();
-  std::mt19937_64 random(7);
-  std::normal_distribution<double> normal;
+  RandomStream random(7);
   const int draws = 4000;
   Eigen::Matrix<double, 2, Eigen::Dynamic> samples(2, draws);
   for (int k = 0; k < draws; ++k) {
     Eigen::Matrix<double, 8, 1> z;
-    for (int i = 0; i < 8; ++i) z(i) = normal(random);
+    for (int i = 0; i < 8; ++i) z(i) = random.normal();
     const Eigen::Matrix<double, 8, 1> delta = l * z;
     Camera<FraserAffine>::Intrinsics in = c.intrinsics();
     for (int i = 0; i < 8; ++i) in[static_cast<std::size_t>(i)] += delta(i);
