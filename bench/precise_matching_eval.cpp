@@ -8,7 +8,7 @@
 //                         [--second-pass PX] [--cell PX] [--ground-gsd G] [--no-ncc] [--no-refine]
 //                         [--ncc-correlation] [--calm] [--calm-only changes,sun,cover,film]
 //                         [--max-relief G] [--relief-radius PX] [--preblur S1,S2] [--dump FILE]
-//                         [--affine-step PX] [--scan-scale K]
+//                         [--affine-step PX] [--scan-scale K] [--e2-scale K]
 //
 // --calm (a diagnostic): the same scenes without their decades, i.e. no landscape change between
 // the epochs and epoch 1 rendered with epoch 2's look (sun, land-cover response, no film defects);
@@ -19,7 +19,8 @@
 // and no JPEG). --preblur S1,S2 blurs each epoch's images (Gaussian sigma in its own px) before
 // matching. --scan-scale K (> 0) renders every epoch's images K times larger on the same footprints
 // (focal length times K, GSD divided by K), as a finer scan of the same photographs; the DSMs keep
-// their cell of 2 GSD and their errors in metres. --dump FILE writes every final match of the methods run: positions, score, true error
+// their cell of 2 GSD and their errors in metres. --e2-scale K does so for epoch 2 alone (on top of
+// --scan-scale), widening the resolution gap between the epochs from the preset's 2 to 2 K. --dump FILE writes every final match of the methods run: positions, score, true error
 // and its vector (epoch-2 px, NaN when the truth cannot decide), the truth's status, its residual
 // to the rough transfer's prediction, the correlation surface's second derivatives at the match
 // (hxx hxy hyy, per master px^2, from a quadratic fitted to the scores over +-2 master px) and the
@@ -94,7 +95,7 @@ struct Arguments {
   int corr_radius = -1, corr_window = -1, second_pass = -1, cell = -1;
   double min_score = std::nan(""), min_margin = std::nan("");
   double ground_gsd = std::nan("");
-  double scan_scale = 1.0;
+  double scan_scale = 1.0, e2_scale = 1.0;
   double max_relief = std::nan(""), relief_radius = std::nan(""), affine_step = std::nan("");
   bool no_ncc = false, no_refine = false, ncc_correlation = false, calm = false;
   std::vector<std::string> calm_only;
@@ -131,6 +132,13 @@ Arguments parse(int argc, char** argv) {
     else if (s == "--min-score") a.min_score = std::stod(value());
     else if (s == "--min-margin") a.min_margin = std::stod(value());
     else if (s == "--ground-gsd") a.ground_gsd = std::stod(value());
+    else if (s == "--e2-scale") {
+      a.e2_scale = std::stod(value());
+      if (!(a.e2_scale > 0.0) || !std::isfinite(a.e2_scale)) {
+        std::fprintf(stderr, "--e2-scale wants a factor > 0\n");
+        std::exit(1);
+      }
+    }
     else if (s == "--scan-scale") {
       a.scan_scale = std::stod(value());
       if (!(a.scan_scale > 0.0) || !std::isfinite(a.scan_scale)) {
@@ -328,10 +336,12 @@ int main(int argc, char** argv) {
         look1.land_cover = keep.land_cover;
         look1.jpeg_quality = 0;
       }
-      for (EpochOptions& epoch : scene_options.epochs) {
-        epoch.focal_px *= args.scan_scale;
-        epoch.image_width_px = static_cast<int>(std::lround(epoch.image_width_px * args.scan_scale));
-        epoch.image_height_px = static_cast<int>(std::lround(epoch.image_height_px * args.scan_scale));
+      for (std::size_t e = 0; e < scene_options.epochs.size(); ++e) {
+        EpochOptions& epoch = scene_options.epochs[e];
+        const double k = args.scan_scale * (e == 1 ? args.e2_scale : 1.0);
+        epoch.focal_px *= k;
+        epoch.image_width_px = static_cast<int>(std::lround(epoch.image_width_px * k));
+        epoch.image_height_px = static_cast<int>(std::lround(epoch.image_height_px * k));
       }
       auto t0 = std::chrono::steady_clock::now();
       const Scene scene = generate_scene(scene_options);

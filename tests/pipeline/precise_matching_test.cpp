@@ -206,7 +206,42 @@ TEST_CASE("correlation precise matching: correct matches on every pair, whatever
       CHECK(p.message.find("(10 px cells)") != std::string::npos);
     }
   }
+  {
+    // The ground filter's threshold: ground_threshold_gsd GSD of the secondary image, but at least
+    // ground_floor_master_gsd GSD of the master (in secondary units), re-computed here from the
+    // definition. A floor of 6 master GSD binds on these images of equal size and keeps at least as
+    // many matches as the default; no floor gives 3 secondary GSD.
+    const SyntheticEpoch& e1 = f.scene.epochs[0];
+    const SyntheticEpoch& e2 = f.scene.epochs[1];
+    const auto gsd_of = [](const Frame<FraserAffine>& frame, const Dsm& dsm, const Raster<std::uint8_t>& image) {
+      return *gsd_on_dsm(frame, dsm, 0.5 * Eigen::Vector2d(image.width() - 1, image.height() - 1));
+    };
+    for (const double floor : {0.0, 1.5, 6.0}) {
+      PreciseMatchingOptions floored = options;
+      floored.correlation.ground_floor_master_gsd = floor;
+      const PreciseMatchingReport r = precise_matching_correlation(epoch_view(f, 0), epoch_view(f, 1),
+                                                                   f.scene.epoch2_from_epoch1(), f.pairs, floored);
+      REQUIRE(r.pairs.size() == report.pairs.size());
+      for (std::size_t k = 0; k < r.pairs.size(); ++k) {
+        const PrecisePairReport& p = r.pairs[k];
+        const double gsd1 = gsd_of(f.frames1[p.master], e1.dsm, e1.images[p.master].pixels) *
+                            f.scene.epoch2_from_epoch1().scale;
+        const double gsd2 = gsd_of(f.frames2[p.secondary], e2.dsm, e2.images[p.secondary].pixels);
+        INFO("floor " << floor << ", pair " << k << ": master GSD " << gsd1 << ", secondary GSD " << gsd2);
+        CHECK(p.ground.threshold == Approx(std::max(3.0 * gsd2, floor * gsd1)).epsilon(1e-12));
+        if (floor == 6.0) {
+          CHECK(p.ground.threshold > 3.0 * gsd2);
+          CHECK(p.grounded.size() >= report.pairs[k].grounded.size());
+        }
+      }
+    }
+  }
   PreciseMatchingOptions bad;
+  bad.correlation.ground_floor_master_gsd = -1.0;
+  CHECK_THROWS_WITH(precise_matching_correlation(epoch_view(f, 0), epoch_view(f, 1), f.scene.epoch2_from_epoch1(),
+                                                 f.pairs, bad),
+                    Catch::Contains("ground_floor_master_gsd must be finite and >= 0"));
+  bad = PreciseMatchingOptions{};
   bad.correlation.ground_threshold_gsd = 0.0;
   CHECK_THROWS_AS(precise_matching_correlation(epoch_view(f, 0), epoch_view(f, 1), f.scene.epoch2_from_epoch1(),
                                                f.pairs, bad),

@@ -95,6 +95,13 @@ struct PreciseCorrelationOptions {
   /// Correlation peaks are mostly within a pixel or two, so the paper's 10 GSD (kept for the
   /// descriptor methods) lets wrong peaks through: 3 GSD kept 96 % within 3 px instead of 69 %.
   double ground_threshold_gsd = 3.0;
+  /// ... but never below this many GSD of the master image (its GSD at its centre, in the secondary
+  /// frame's units; >= 0, 0 = no floor). The window lives in master pixels, so a match is precise to
+  /// a fraction of a master pixel however fine the secondary image is: with epoch 2 eight times finer
+  /// than epoch 1, 3 secondary GSD is 0.4 master GSD, and the filter kept 18 matches per pair instead of
+  /// 216 (docs/precise-matching.md, "Resolution gaps"). 1.5 is what 3 secondary GSD is on the decades
+  /// preset (epoch 1 twice as coarse), so it binds only where the gap is wider than 2.
+  double ground_floor_master_gsd = 1.5;
   /// Run the intensity NCC validator on the correlation matches. Off: the correlation score already
   /// is the validation, and an intensity NCC >= 0.6 rejects the matches on land cover whose contrast
   /// inverted between the epochs, which the orientation measure keeps (3/4 of them on seed 0).
@@ -130,6 +137,9 @@ struct PreciseCorrelationOptions {
     DIACHRON_CHECK(std::isfinite(ground_threshold_gsd) && ground_threshold_gsd > 0.0,
                    "PreciseCorrelationOptions::ground_threshold_gsd must be finite and > 0, got "
                        << ground_threshold_gsd);
+    DIACHRON_CHECK(std::isfinite(ground_floor_master_gsd) && ground_floor_master_gsd >= 0.0,
+                   "PreciseCorrelationOptions::ground_floor_master_gsd must be finite and >= 0, got "
+                       << ground_floor_master_gsd);
   }
 };
 
@@ -242,6 +252,20 @@ double secondary_gsd(const Frame& frame, const Dsm& dsm, int width, int height) 
   return std::numeric_limits<double>::quiet_NaN();
 }
 
+// The GSD the ground filter multiplies its threshold_gsd by: the secondary image's, raised so that the
+// threshold is at least floor_master_gsd GSD of the master image (converted to the secondary frame by the
+// Helmert's scale). NaN when the secondary GSD cannot be measured; no floor when the master's cannot.
+template <class MasterFrame, class SecondaryFrame>
+double ground_filter_gsd(const PreciseImage<MasterFrame>& master, const Dsm& master_dsm,
+                         const PreciseImage<SecondaryFrame>& secondary, const Dsm& secondary_dsm,
+                         const Helmert3& epoch2_from_epoch1, double threshold_gsd, double floor_master_gsd) {
+  const double gsd2 = secondary_gsd(*secondary.frame, secondary_dsm, secondary.pixels->width(), secondary.pixels->height());
+  if (!std::isfinite(gsd2) || !(floor_master_gsd > 0.0)) return gsd2;
+  const double gsd1 = secondary_gsd(*master.frame, master_dsm, master.pixels->width(), master.pixels->height());
+  if (!std::isfinite(gsd1)) return gsd2;
+  return std::max(gsd2, floor_master_gsd * gsd1 * epoch2_from_epoch1.scale / threshold_gsd);
+}
+
 /// The points whose ground both DSMs show as locally a plane (PreciseCorrelationOptions::max_relief_gsd).
 template <class Transfer, class MasterFrame, class SecondaryFrame>
 std::vector<Eigen::Vector2d> points_on_plane_ground(const std::vector<Eigen::Vector2d>& points, const Transfer& transfer,
@@ -290,7 +314,8 @@ inline PointMatches ncc_final_matches(const PointMatches& matches, const NccResu
 template <class MasterFrame, class SecondaryFrame>
 void filter_precise_pair(PrecisePairReport& report, const PreciseImage<MasterFrame>& master, const Dsm& master_dsm,
                          const PreciseImage<SecondaryFrame>& secondary, const Dsm& secondary_dsm,
-                         const Helmert3& epoch2_from_epoch1, const PreciseMatchingOptions& options) {
+                         const Helmert3& epoch2_from_epoch1, const PreciseMatchingOptions& options,
+                         double floor_master_gsd = 0.0) {
   const auto transfer = make_dsm_transfer(*master.frame, master_dsm, *secondary.frame, epoch2_from_epoch1);
   auto start = std::chrono::steady_clock::now();
   if (report.tentative.empty()) {
@@ -300,8 +325,8 @@ void filter_precise_pair(PrecisePairReport& report, const PreciseImage<MasterFra
   if (options.use_ground_filter) {
     const DsmLift<SecondaryFrame> secondary_lift(*secondary.frame, secondary_dsm);
     const auto master_lift = [&transfer](const Eigen::Vector2d& px) { return transfer.secondary_point(px); };
-    const double gsd = detail::secondary_gsd(*secondary.frame, secondary_dsm, secondary.pixels->width(),
-                                             secondary.pixels->height());
+    const double gsd = detail::ground_filter_gsd(master, master_dsm, secondary, secondary_dsm, epoch2_from_epoch1,
+                                                 options.ground.threshold_gsd, floor_master_gsd);
     if (!std::isfinite(gsd)) {
       report.message = "the secondary image's GSD cannot be measured (its centre ray misses the DSM plane)";
       report.seconds.ground = detail::precise_seconds_since(start);
@@ -419,8 +444,8 @@ PrecisePairReport precise_match_pair_correlation(const PreciseImage<MasterFrame>
   std::string second_pass = "first pass: " + describe(first) + "; no second pass";
   report.tentative = first.matches;
   if (co.second_pass_radius_px > 0 && report.tentative.size() >= filters.ground.min_pairs) {
-    const double gsd = detail::secondary_gsd(*secondary.frame, secondary_dsm, secondary.pixels->width(),
-                                             secondary.pixels->height());
+    const double gsd = detail::ground_filter_gsd(master, master_dsm, secondary, secondary_dsm, epoch2_from_epoch1,
+                                                 filters.ground.threshold_gsd, co.ground_floor_master_gsd);
     if (std::isfinite(gsd)) {
       const DsmLift<SecondaryFrame> secondary_lift(*secondary.frame, secondary_dsm);
       const auto master_lift = [&transfer](const Eigen::Vector2d& px) { return transfer.secondary_point(px); };
@@ -441,7 +466,8 @@ PrecisePairReport precise_match_pair_correlation(const PreciseImage<MasterFrame>
     }
   }
   report.seconds.tentative = detail::precise_seconds_since(start);
-  filter_precise_pair(report, master, master_dsm, secondary, secondary_dsm, epoch2_from_epoch1, filters);
+  filter_precise_pair(report, master, master_dsm, secondary, secondary_dsm, epoch2_from_epoch1, filters,
+                      co.ground_floor_master_gsd);
   report.message += "; " + std::to_string(points.size()) + " interest points (" + std::to_string(interest.cell_px) +
                     " px cells)" + relief_note + ", " + second_pass;
   report.seconds.total = detail::precise_seconds_since(start);
