@@ -40,7 +40,7 @@
 //
 //   adjustment_eval [--seeds N] [--first-seed S] [--threads N] [--no-colmap] [--colmap-work DIR]
 //                   [--max-relief G] [--cell PX] [--e1-block RxC] [--e1-ties N] [--e2-block RxC]
-//                   [--matches-cache DIR] [--affine-step PX] [--inter-sigma PX]
+//                   [--matches-cache DIR] [--affine-step PX] [--inter-sigma PX] [--e2-scale K]
 //
 // --max-relief G: precise matching skips master points whose ground is not locally a plane to G
 // secondary GSD (PreciseCorrelationOptions::max_relief_gsd; default off, as match_epochs).
@@ -54,6 +54,8 @@
 // same overlaps and centre. The default 3 x 3 block covers about 1.4 x 1.4 km, less than the film
 // block's 2.2 x 2.0 km, so the film images' outer parts get no inter-epoch match; 5x6 covers the whole
 // film block, as the reference epochs of the paper's datasets cover their historical ones.
+// --e2-scale K: epoch 2's images K times larger on the same footprints (focal length times K, GSD
+// divided by K; its DSM keeps 2 GSD): a resolution gap of 2 K between the epochs instead of 2.
 // --matches-cache DIR: precise matching's inter-epoch matches are read from DIR when a Homol folder
 // for the seed and the options that shape them (blocks, tie points, cell, relief, affine step) is
 // there, and written there otherwise (full precision). Precise matching is most of a seed's time (3 to 6 min
@@ -355,6 +357,7 @@ int run(int argc, char** argv) {
   std::string matches_cache;
   double affine_step = -1.0;  // < 0: the library's default
   double inter_sigma = 3.0;   // the variant "inter sigma X"
+  double e2_scale = 1.0;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     const auto value = [&]() -> std::string {
@@ -376,13 +379,17 @@ int run(int argc, char** argv) {
       inter_sigma = std::stod(value());
       if (!(inter_sigma > 0.0) || !std::isfinite(inter_sigma)) throw std::runtime_error("--inter-sigma needs a finite sigma > 0");
     }
+    else if (a == "--e2-scale") {
+      e2_scale = std::stod(value());
+      if (!(e2_scale > 0.0) || !std::isfinite(e2_scale)) throw std::runtime_error("--e2-scale needs a factor > 0");
+    }
     else if (a == "--e1-ties") {
       e1_ties = std::stoi(value());
       if (e1_ties < 0) throw std::runtime_error("--e1-ties needs a count >= 0");
     } else {
       std::fprintf(stderr,
                    "usage: adjustment_eval [--seeds N] [--first-seed S] [--threads N] [--no-colmap] [--colmap-work DIR] "
-                   "[--max-relief G] [--cell PX] [--e1-block RxC] [--e1-ties N] [--e2-block RxC] [--matches-cache DIR] [--affine-step PX] [--inter-sigma PX]\n");
+                   "[--max-relief G] [--cell PX] [--e1-block RxC] [--e1-ties N] [--e2-block RxC] [--matches-cache DIR] [--affine-step PX] [--inter-sigma PX] [--e2-scale K]\n");
       return 1;
     }
   }
@@ -398,6 +405,12 @@ int run(int argc, char** argv) {
     e1_block.apply(scene_options.epochs[0]);
     e2_block.apply(scene_options.epochs[1]);
     if (e1_ties >= 0) scene_options.epochs[0].tie_points = e1_ties;
+    {
+      EpochOptions& e2 = scene_options.epochs[1];
+      e2.focal_px *= e2_scale;
+      e2.image_width_px = static_cast<int>(std::lround(e2.image_width_px * e2_scale));
+      e2.image_height_px = static_cast<int>(std::lround(e2.image_height_px * e2_scale));
+    }
     auto t0 = std::chrono::steady_clock::now();
     const Scene scene = generate_scene(scene_options);
     const SyntheticEpoch& e1 = scene.epochs[0];
@@ -433,10 +446,11 @@ int run(int argc, char** argv) {
     precise_options.threads = threads;
     t0 = std::chrono::steady_clock::now();
     char cache_name[200];
-    std::snprintf(cache_name, sizeof cache_name, "/seed%llu-e1%dx%d-e2%dx%d-ties%d-cell%d-relief%g-step%g",
+    std::snprintf(cache_name, sizeof cache_name, "/seed%llu-e1%dx%d-e2%dx%d-ties%d-cell%d-relief%g-step%g%s",
                   static_cast<unsigned long long>(scene_options.seed), scene_options.epochs[0].rows,
                   scene_options.epochs[0].columns, scene_options.epochs[1].rows, scene_options.epochs[1].columns,
-                  scene_options.epochs[0].tie_points, cell, max_relief, precise_options.correlation.match.affine_step());
+                  scene_options.epochs[0].tie_points, cell, max_relief, precise_options.correlation.match.affine_step(),
+                  e2_scale == 1.0 ? "" : ("-e2x" + std::to_string(e2_scale)).c_str());
     const std::string cache_path = matches_cache.empty() ? std::string() : matches_cache + cache_name;
     std::optional<std::vector<EpochPairMatches>> cached;
     if (!cache_path.empty()) cached = read_matches(cache_path, overlap.pairs);

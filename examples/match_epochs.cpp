@@ -91,7 +91,8 @@ const char* kUsage =
     "  --no-refine                            keep the matcher's positions (no least-squares refinement)\n"
     "  --ground-gsd G                         the ground filter's inlier threshold, GSD of the secondary\n"
     "                                         image (default 3 for correlation, 10 for patch and\n"
-    "                                         guided, the paper's); larger for scans much finer than\n"
+    "                                         guided, the paper's; correlation's is at least 1.5 GSD\n"
+    "                                         of the epoch-1 image); larger for scans much finer than\n"
     "                                         their DSMs' errors (docs/precise-matching.md)\n"
     "  --no-ground-filter                     skip the 3D Helmert RANSAC\n"
     "  --no-ncc                               skip the NCC validator\n"
@@ -397,7 +398,9 @@ void write_report(const std::string& path, const EpochFolder& e1, const EpochFol
   const double ground_gsd =
       method == "correlation" ? options.correlation.ground_threshold_gsd : options.ground.threshold_gsd;
   out << "  \"ground_filter\": {\"on\": " << (options.use_ground_filter ? "true" : "false")
-      << ", \"threshold_gsd\": " << ground_gsd << "},\n";
+      << ", \"threshold_gsd\": " << ground_gsd;
+  if (method == "correlation") out << ", \"floor_master_gsd\": " << options.correlation.ground_floor_master_gsd;
+  out << "},\n";
   out << "  \"precise_matching\": {\"success\": " << (precise.success ? "true" : "false")
       << ", \"message\": " << quoted(precise.message) << ", \"tentative\": " << precise.tentative
       << ", \"after_ground_filter\": " << precise.grounded << ", \"final\": " << precise.final_matches
