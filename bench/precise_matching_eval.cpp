@@ -20,7 +20,8 @@
 // matching. --scan-scale K (> 0) renders every epoch's images K times larger on the same footprints
 // (focal length times K, GSD divided by K), as a finer scan of the same photographs; the DSMs keep
 // their cell of 2 GSD and their errors in metres. --e2-scale K does so for epoch 2 alone (on top of
-// --scan-scale), widening the resolution gap between the epochs from the preset's 2 to 2 K. --dump FILE writes every final match of the methods run: positions, score, true error
+// --scan-scale), widening the resolution gap between the epochs from the preset's 2 to 2 K.
+// --dump FILE writes every final match of the methods run: positions, score, true error
 // and its vector (epoch-2 px, NaN when the truth cannot decide), the truth's status, its residual
 // to the rough transfer's prediction, the correlation surface's second derivatives at the match
 // (hxx hxy hyy, per master px^2, from a quadratic fitted to the scores over +-2 master px) and the
