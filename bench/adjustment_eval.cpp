@@ -115,6 +115,7 @@ using namespace diachron;
 using bench::median;
 using bench::seconds_since;
 using bench::peak_shape;
+using bench::scale_images;
 using bench::PeakShape;
 
 namespace {
@@ -413,12 +414,7 @@ int run(int argc, char** argv) {
     e1_block.apply(scene_options.epochs[0]);
     e2_block.apply(scene_options.epochs[1]);
     if (e1_ties >= 0) scene_options.epochs[0].tie_points = e1_ties;
-    {
-      EpochOptions& e2 = scene_options.epochs[1];
-      e2.focal_px *= e2_scale;
-      e2.image_width_px = static_cast<int>(std::lround(e2.image_width_px * e2_scale));
-      e2.image_height_px = static_cast<int>(std::lround(e2.image_height_px * e2_scale));
-    }
+    scale_images(scene_options.epochs[1], e2_scale);
     auto t0 = std::chrono::steady_clock::now();
     const Scene scene = generate_scene(scene_options);
     const SyntheticEpoch& e1 = scene.epochs[0];

@@ -1,7 +1,8 @@
 #pragma once
 /// @file
 /// Shared pieces of the benchmarks that score matches with the truth of a synthetic scene
-/// (eval/match_truth.hpp): counts per error threshold, medians, a stopwatch, list arguments.
+/// (eval/match_truth.hpp): counts per error threshold, medians, a stopwatch, list arguments, finer
+/// scans of a scene's epochs.
 
 #include <algorithm>
 #include <chrono>
@@ -12,6 +13,7 @@
 #include <vector>
 
 #include <diachron/eval/match_truth.hpp>
+#include <diachron/synth/epoch.hpp>
 
 namespace diachron::bench {
 
@@ -26,6 +28,14 @@ inline std::vector<std::string> split_list(const std::string& text) {
   for (std::string item; std::getline(in, item, ',');)
     if (!item.empty()) out.push_back(item);
   return out;
+}
+
+/// An epoch's images `k` times larger on the same footprints (focal length times k, GSD divided by k),
+/// as a finer scan of the same photographs; its DSM keeps its cell of `dsm.cell_gsd` GSD.
+inline void scale_images(EpochOptions& epoch, double k) {
+  epoch.focal_px *= k;
+  epoch.image_width_px = static_cast<int>(std::lround(epoch.image_width_px * k));
+  epoch.image_height_px = static_cast<int>(std::lround(epoch.image_height_px * k));
 }
 
 /// Median of `v` (the mean of the two middle values for an even count); NaN when empty.

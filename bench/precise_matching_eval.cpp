@@ -78,6 +78,7 @@ using diachron::bench::Scored;
 using diachron::bench::split_list;
 using diachron::bench::seconds_since;
 using diachron::bench::peak_shape;
+using diachron::bench::scale_images;
 
 namespace {
 
@@ -337,13 +338,8 @@ int main(int argc, char** argv) {
         look1.land_cover = keep.land_cover;
         look1.jpeg_quality = 0;
       }
-      for (std::size_t e = 0; e < scene_options.epochs.size(); ++e) {
-        EpochOptions& epoch = scene_options.epochs[e];
-        const double k = args.scan_scale * (e == 1 ? args.e2_scale : 1.0);
-        epoch.focal_px *= k;
-        epoch.image_width_px = static_cast<int>(std::lround(epoch.image_width_px * k));
-        epoch.image_height_px = static_cast<int>(std::lround(epoch.image_height_px * k));
-      }
+      for (std::size_t e = 0; e < scene_options.epochs.size(); ++e)
+        scale_images(scene_options.epochs[e], args.scan_scale * (e == 1 ? args.e2_scale : 1.0));
       auto t0 = std::chrono::steady_clock::now();
       const Scene scene = generate_scene(scene_options);
       std::fprintf(stderr, "seed %llu: scene in %.1f s\n", static_cast<unsigned long long>(scene_options.seed),

@@ -372,6 +372,13 @@ void write_residual_pictures(const std::string& dir, const EpochFolder& e1, Pict
 }
 #endif
 
+// The ground filter's threshold (GSD of the secondary image) that `method` uses: correlation matches
+// have their own, tighter one (PreciseCorrelationOptions); the descriptor methods the shared one.
+template <class Options>
+auto& ground_threshold_gsd(Options& options, const std::string& method) {
+  return method == "correlation" ? options.correlation.ground_threshold_gsd : options.ground.threshold_gsd;
+}
+
 void write_report(const std::string& path, const EpochFolder& e1, const EpochFolder& e2,
                   const RoughCoregistrationReport& rough, const OverlappingPairsResult& overlap,
                   const PreciseMatchingReport& precise, const PreciseMatchingOptions& options,
@@ -394,11 +401,8 @@ void write_report(const std::string& path, const EpochFolder& e1, const EpochFol
       << ", \"overlapping\": " << overlap.overlapping_pairs << ", \"kept\": " << overlap.pairs.size()
       << ", \"invalid_footprints\": [" << overlap.invalid_master_footprints << ", "
       << overlap.invalid_secondary_footprints << "], \"message\": " << quoted(overlap.message) << "},\n";
-  // The threshold the method used: correlation matches have their own (PreciseCorrelationOptions).
-  const double ground_gsd =
-      method == "correlation" ? options.correlation.ground_threshold_gsd : options.ground.threshold_gsd;
   out << "  \"ground_filter\": {\"on\": " << (options.use_ground_filter ? "true" : "false")
-      << ", \"threshold_gsd\": " << ground_gsd;
+      << ", \"threshold_gsd\": " << ground_threshold_gsd(options, method);
   if (method == "correlation") out << ", \"floor_master_gsd\": " << options.correlation.ground_floor_master_gsd;
   out << "},\n";
   out << "  \"precise_matching\": {\"success\": " << (precise.success ? "true" : "false")
@@ -520,9 +524,7 @@ int main(int argc, char** argv) {
       DIACHRON_CHECK(std::isfinite(*ground_gsd) && *ground_gsd > 0.0,
                      "--ground-gsd wants a threshold > 0 (GSD of the secondary image), got " << *ground_gsd);
       DIACHRON_CHECK(options.use_ground_filter, "--ground-gsd and --no-ground-filter contradict each other");
-      // Correlation matches have their own, tighter threshold; the descriptor methods use the shared one.
-      if (method == "correlation") options.correlation.ground_threshold_gsd = *ground_gsd;
-      else options.ground.threshold_gsd = *ground_gsd;
+      ground_threshold_gsd(options, method) = *ground_gsd;
     }
     DIACHRON_CHECK(matcher_name == "sift" || matcher_name == "rootsift" || matcher_name == "akaze" ||
                        matcher_name == "xfeat",

@@ -7,14 +7,7 @@
 # Usage: scripts/clang.sh
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
-"$root/scripts/install_deps.sh"
-if ! command -v clang++ >/dev/null; then
-  sudo_cmd=()
-  if [ "$(id -u)" -ne 0 ]; then sudo_cmd=(sudo); fi
-  echo "diachron: installing clang"
-  "${sudo_cmd[@]}" apt-get update -qq
-  DEBIAN_FRONTEND=noninteractive "${sudo_cmd[@]}" apt-get install -y -qq --no-install-recommends clang
-fi
+"$root/scripts/install_deps.sh" --clang
 jobs=$(nproc)
 
 echo "== clang build (warnings are errors) and tests"

@@ -2,15 +2,22 @@
 # Installs the Debian 12 packages diachron needs, only those that are missing; runs
 # 'apt-get update' only when something has to be installed. Needs root (or sudo) for the install.
 #
-# Usage: scripts/install_deps.sh [--peers]
+# Usage: scripts/install_deps.sh [--peers] [--clang]
 #   --peers  also try the optional packages of the peer tools (colmap, sqlite3): the COLMAP test in
 #            tests/io runs when colmap is there and is skipped otherwise, bench/peers/ needs both.
 #            A peer package that cannot be installed is reported and never fails the script.
+#   --clang  also install clang (scripts/clang.sh builds with it).
 set -euo pipefail
 
 packages=(build-essential cmake libeigen3-dev libnanoflann-dev catch2 libopencv-dev libceres-dev libgdal-dev)
 optional=()
-[ "${1:-}" = "--peers" ] && optional=(colmap sqlite3)
+for arg in "$@"; do
+  case "$arg" in
+    --peers) optional=(colmap sqlite3) ;;
+    --clang) packages+=(clang) ;;
+    *) echo "install_deps.sh: unknown option $arg" >&2; exit 1 ;;
+  esac
+done
 
 installed() { dpkg-query -W -f='${Status}' "$1" 2>/dev/null | grep -q "install ok installed"; }
 

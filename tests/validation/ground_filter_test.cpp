@@ -260,6 +260,15 @@ TEST_CASE("GroundFilter: Options and invalid input", "[validation]") {
   CHECK_THROWS_AS(o.check(), diachron::Error);
 
   CHECK_THROWS_WITH(diachron::ground_filter(matches, master, secondary, 0.0), Catch::Contains("secondary_gsd"));
+
+  // min_threshold raises the GSD threshold (20 m here) and never lowers it.
+  o = {};
+  o.min_threshold = 35.0;
+  CHECK(diachron::ground_filter(matches, master, secondary, scene.gsd, o).threshold == 35.0);
+  o.min_threshold = 5.0;
+  CHECK(diachron::ground_filter(matches, master, secondary, scene.gsd, o).threshold == Approx(20.0));
+  o.min_threshold = -1.0;
+  CHECK_THROWS_WITH(o.check(), Catch::Contains("min_threshold must be finite and >= 0"));
   CHECK_THROWS_AS(diachron::ground_filter(matches, master, secondary, std::nan("")), diachron::Error);
   matches[4].b.x() = std::nan("");
   CHECK_THROWS_WITH(diachron::ground_filter(matches, master, secondary, scene.gsd), Catch::Contains("match 4"));

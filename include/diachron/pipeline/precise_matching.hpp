@@ -96,11 +96,12 @@ struct PreciseCorrelationOptions {
   /// descriptor methods) lets wrong peaks through: 3 GSD kept 96 % within 3 px instead of 69 %.
   double ground_threshold_gsd = 3.0;
   /// ... but never below this many GSD of the master image (its GSD at its centre, in the secondary
-  /// frame's units; >= 0, 0 = no floor). The window lives in master pixels, so a match is precise to
-  /// a fraction of a master pixel however fine the secondary image is: with epoch 2 eight times finer
-  /// than epoch 1, 3 secondary GSD is 0.4 master GSD, and the filter kept 18 matches per pair instead of
-  /// 216 (docs/precise-matching.md, "Resolution gaps"). 1.5 is what 3 secondary GSD is on the decades
-  /// preset (epoch 1 twice as coarse), so it binds only where the gap is wider than 2.
+  /// frame's units; >= 0, 0 = no floor), which becomes the ground filter's min_threshold. The window
+  /// lives in master pixels, so a match is precise to a fraction of a master pixel however fine the
+  /// secondary image is: with epoch 2 eight times finer than epoch 1, 3 secondary GSD is 0.4 master
+  /// GSD, and the filter kept 18 matches per pair instead of 216 (docs/precise-matching.md,
+  /// "Resolution gaps"). 1.5 is what 3 secondary GSD is on the decades preset (epoch 1 twice as
+  /// coarse), so it binds only where the gap is wider than 2.
   double ground_floor_master_gsd = 1.5;
   /// Run the intensity NCC validator on the correlation matches. Off: the correlation score already
   /// is the validation, and an intensity NCC >= 0.6 rejects the matches on land cover whose contrast
@@ -252,20 +253,6 @@ double secondary_gsd(const Frame& frame, const Dsm& dsm, int width, int height) 
   return std::numeric_limits<double>::quiet_NaN();
 }
 
-// The GSD the ground filter multiplies its threshold_gsd by: the secondary image's, raised so that the
-// threshold is at least floor_master_gsd GSD of the master image (converted to the secondary frame by the
-// Helmert's scale). NaN when the secondary GSD cannot be measured; no floor when the master's cannot.
-template <class MasterFrame, class SecondaryFrame>
-double ground_filter_gsd(const PreciseImage<MasterFrame>& master, const Dsm& master_dsm,
-                         const PreciseImage<SecondaryFrame>& secondary, const Dsm& secondary_dsm,
-                         const Helmert3& epoch2_from_epoch1, double threshold_gsd, double floor_master_gsd) {
-  const double gsd2 = secondary_gsd(*secondary.frame, secondary_dsm, secondary.pixels->width(), secondary.pixels->height());
-  if (!std::isfinite(gsd2) || !(floor_master_gsd > 0.0)) return gsd2;
-  const double gsd1 = secondary_gsd(*master.frame, master_dsm, master.pixels->width(), master.pixels->height());
-  if (!std::isfinite(gsd1)) return gsd2;
-  return std::max(gsd2, floor_master_gsd * gsd1 * epoch2_from_epoch1.scale / threshold_gsd);
-}
-
 /// The points whose ground both DSMs show as locally a plane (PreciseCorrelationOptions::max_relief_gsd).
 template <class Transfer, class MasterFrame, class SecondaryFrame>
 std::vector<Eigen::Vector2d> points_on_plane_ground(const std::vector<Eigen::Vector2d>& points, const Transfer& transfer,
@@ -314,8 +301,7 @@ inline PointMatches ncc_final_matches(const PointMatches& matches, const NccResu
 template <class MasterFrame, class SecondaryFrame>
 void filter_precise_pair(PrecisePairReport& report, const PreciseImage<MasterFrame>& master, const Dsm& master_dsm,
                          const PreciseImage<SecondaryFrame>& secondary, const Dsm& secondary_dsm,
-                         const Helmert3& epoch2_from_epoch1, const PreciseMatchingOptions& options,
-                         double floor_master_gsd = 0.0) {
+                         const Helmert3& epoch2_from_epoch1, const PreciseMatchingOptions& options) {
   const auto transfer = make_dsm_transfer(*master.frame, master_dsm, *secondary.frame, epoch2_from_epoch1);
   auto start = std::chrono::steady_clock::now();
   if (report.tentative.empty()) {
@@ -325,8 +311,8 @@ void filter_precise_pair(PrecisePairReport& report, const PreciseImage<MasterFra
   if (options.use_ground_filter) {
     const DsmLift<SecondaryFrame> secondary_lift(*secondary.frame, secondary_dsm);
     const auto master_lift = [&transfer](const Eigen::Vector2d& px) { return transfer.secondary_point(px); };
-    const double gsd = detail::ground_filter_gsd(master, master_dsm, secondary, secondary_dsm, epoch2_from_epoch1,
-                                                 options.ground.threshold_gsd, floor_master_gsd);
+    const double gsd = detail::secondary_gsd(*secondary.frame, secondary_dsm, secondary.pixels->width(),
+                                             secondary.pixels->height());
     if (!std::isfinite(gsd)) {
       report.message = "the secondary image's GSD cannot be measured (its centre ray misses the DSM plane)";
       report.seconds.ground = detail::precise_seconds_since(start);
@@ -419,6 +405,14 @@ PrecisePairReport precise_match_pair_correlation(const PreciseImage<MasterFrame>
   // The correlation filters use their own ground threshold and NCC switch.
   PreciseMatchingOptions filters = options;
   filters.ground.threshold_gsd = co.ground_threshold_gsd;
+  // The floor in master GSD, in the secondary frame (none when the master's GSD cannot be measured).
+  if (co.ground_floor_master_gsd > 0.0) {
+    const double gsd1 =
+        detail::secondary_gsd(*master.frame, master_dsm, master.pixels->width(), master.pixels->height());
+    if (std::isfinite(gsd1))
+      filters.ground.min_threshold =
+          std::max(filters.ground.min_threshold, co.ground_floor_master_gsd * gsd1 * epoch2_from_epoch1.scale);
+  }
   filters.use_ncc = options.use_ncc && co.use_ncc;
   GridInterestOptions interest = co.interest;
   interest.cell_px = effective_cell_px(co, master.pixels->width(), master.pixels->height());
@@ -444,8 +438,8 @@ PrecisePairReport precise_match_pair_correlation(const PreciseImage<MasterFrame>
   std::string second_pass = "first pass: " + describe(first) + "; no second pass";
   report.tentative = first.matches;
   if (co.second_pass_radius_px > 0 && report.tentative.size() >= filters.ground.min_pairs) {
-    const double gsd = detail::ground_filter_gsd(master, master_dsm, secondary, secondary_dsm, epoch2_from_epoch1,
-                                                 filters.ground.threshold_gsd, co.ground_floor_master_gsd);
+    const double gsd = detail::secondary_gsd(*secondary.frame, secondary_dsm, secondary.pixels->width(),
+                                             secondary.pixels->height());
     if (std::isfinite(gsd)) {
       const DsmLift<SecondaryFrame> secondary_lift(*secondary.frame, secondary_dsm);
       const auto master_lift = [&transfer](const Eigen::Vector2d& px) { return transfer.secondary_point(px); };
@@ -466,8 +460,7 @@ PrecisePairReport precise_match_pair_correlation(const PreciseImage<MasterFrame>
     }
   }
   report.seconds.tentative = detail::precise_seconds_since(start);
-  filter_precise_pair(report, master, master_dsm, secondary, secondary_dsm, epoch2_from_epoch1, filters,
-                      co.ground_floor_master_gsd);
+  filter_precise_pair(report, master, master_dsm, secondary, secondary_dsm, epoch2_from_epoch1, filters);
   report.message += "; " + std::to_string(points.size()) + " interest points (" + std::to_string(interest.cell_px) +
                     " px cells)" + relief_note + ", " + second_pass;
   report.seconds.total = detail::precise_seconds_since(start);

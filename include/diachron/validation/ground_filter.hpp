@@ -4,6 +4,7 @@
 /// lifted to 3D, master and secondary in one frame, and a 3D Helmert RANSAC (1000 iterations,
 /// 10 x the secondary image's GSD) keeps the matches whose 3D points agree.
 
+#include <algorithm>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -53,8 +54,12 @@ inline constexpr bool is_lift_v = detail::is_lift<L>::value;
 /// 3DRANTh = 10 x GSD2, MinPt = 10).
 struct GroundFilterOptions {
   /// Inlier threshold in multiples of the secondary image's GSD (dimensionless, finite, > 0): a
-  /// match is kept when its 3D residual is at most `threshold_gsd * secondary_gsd`.
+  /// match is kept when its 3D residual is at most max(`threshold_gsd * secondary_gsd`, `min_threshold`).
   double threshold_gsd = 10.0;
+  /// Least inlier threshold, secondary-frame units (finite, >= 0; 0 = none): for matches whose
+  /// precision the secondary GSD does not set, e.g. correlation matches against a much finer
+  /// secondary image (precise matching puts 1.5 master GSD here), or DSMs whose errors are known.
+  double min_threshold = 0.0;
   /// Fewest matches lifted on both sides for a verdict, >= 4 (one more than a Helmert's minimal
   /// sample, so that one model is tested by at least one other pair). Below it the result has
   /// success == false and keeps nothing, as MicMac writes no tie points for such a pair.
@@ -79,6 +84,8 @@ struct GroundFilterOptions {
   void check() const {
     DIACHRON_CHECK(std::isfinite(threshold_gsd) && threshold_gsd > 0.0,
                    "GroundFilterOptions::threshold_gsd must be finite and > 0, got " << threshold_gsd);
+    DIACHRON_CHECK(std::isfinite(min_threshold) && min_threshold >= 0.0,
+                   "GroundFilterOptions::min_threshold must be finite and >= 0, got " << min_threshold);
     DIACHRON_CHECK(min_pairs >= 4, "GroundFilterOptions::min_pairs must be >= 4, got " << min_pairs);
     RansacOptions r = ransac;
     r.threshold = 1.0;  // replaced by the GSD threshold, so its own value does not matter
@@ -104,7 +111,7 @@ struct GroundFilterResult : MatchFilterResult {
   /// secondary points, in uncentred secondary-frame coordinates: the correction to the Helmert the
   /// master lift went through. Identity when there is none.
   Helmert3 model = Helmert3::identity();
-  /// The inlier threshold used, secondary-frame units (threshold_gsd x secondary_gsd).
+  /// The inlier threshold used, secondary-frame units: max(threshold_gsd x secondary_gsd, min_threshold).
   double threshold = std::numeric_limits<double>::quiet_NaN();
   /// RMS of the kept matches' residuals, secondary-frame units; +inf without a model.
   double rms = std::numeric_limits<double>::infinity();
@@ -116,8 +123,8 @@ struct GroundFilterResult : MatchFilterResult {
 /// deliver points in the secondary epoch's frame: the master DSM then the Helmert epoch 1 -> 2) and
 /// its secondary keypoint through `secondary_lift` (the secondary DSM); a 3D Helmert RANSAC
 /// (ransac_helmert3, LO-MSAC with the options' iterations) runs on the pairs lifted on both sides
-/// and the matches within `threshold_gsd * secondary_gsd` of its model are kept, each once (MicMac
-/// lists its 3 seeds twice; this does not).
+/// and the matches within max(`threshold_gsd * secondary_gsd`, `min_threshold`) of its model are
+/// kept, each once (MicMac lists its 3 seeds twice; this does not).
 ///
 /// Coordinates are centred on the lifted points' centroid before the solve, so UTM or ECEF frames
 /// lose no precision; residuals and `model` are in the original frame. Deterministic: the same
@@ -153,7 +160,7 @@ GroundFilterResult ground_filter(const PointMatches& matches, const MasterLift& 
   GroundFilterResult result;
   result.keep.assign(n, 0);
   result.score.assign(n, nan);
-  result.threshold = options.threshold_gsd * secondary_gsd;
+  result.threshold = std::max(options.threshold_gsd * secondary_gsd, options.min_threshold);
 
   // 0 = lifted, 1 = master failed, 2 = secondary failed; one slot per match so threads never meet.
   std::vector<std::uint8_t> failure(n, 0);
