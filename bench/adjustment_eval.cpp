@@ -41,7 +41,7 @@
 //   adjustment_eval [--seeds N] [--first-seed S] [--threads N] [--no-colmap] [--colmap-work DIR]
 //                   [--max-relief G] [--cell PX] [--e1-block RxC] [--e1-ties N] [--e2-block RxC]
 //                   [--matches-cache DIR] [--affine-step PX] [--inter-sigma PX] [--e2-scale K]
-//                   [--ground-floor G]
+//                   [--ground-floor G] [--sharpen A,S]
 //
 // --max-relief G: precise matching skips master points whose ground is not locally a plane to G
 // secondary GSD (PreciseCorrelationOptions::max_relief_gsd; default off, as match_epochs).
@@ -59,6 +59,7 @@
 // divided by K; its DSM keeps 2 GSD): a resolution gap of 2 K between the epochs instead of 2.
 // --ground-floor G: the correlation ground filter's floor in master GSD
 // (PreciseCorrelationOptions::ground_floor_master_gsd, default 1.5; 0 = the threshold in secondary GSD alone).
+// --sharpen A,S: PreciseCorrelationOptions::master_sharpen (amount A, Gaussian sigma S master px).
 // --matches-cache DIR: precise matching's inter-epoch matches are read from DIR when a Homol folder
 // for the seed and the options that shape them (blocks, tie points, cell, relief, affine step) is
 // there, and written there otherwise (full precision). Precise matching is most of a seed's time (3 to 6 min
@@ -363,6 +364,7 @@ int run(int argc, char** argv) {
   double inter_sigma = 3.0;   // the variant "inter sigma X"
   double e2_scale = 1.0;
   double ground_floor = -1.0;  // < 0: the library's default
+  UnsharpMaskOptions sharpen;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     const auto value = [&]() -> std::string {
@@ -388,6 +390,11 @@ int run(int argc, char** argv) {
       ground_floor = std::stod(value());
       if (!(ground_floor >= 0.0) || !std::isfinite(ground_floor)) throw std::runtime_error("--ground-floor needs a floor >= 0");
     }
+    else if (a == "--sharpen") {
+      if (std::sscanf(value().c_str(), "%lf,%lf", &sharpen.amount, &sharpen.sigma_px) != 2)
+        throw std::runtime_error("--sharpen needs A,S (amount, sigma in master px)");
+      sharpen.check();
+    }
     else if (a == "--e2-scale") {
       e2_scale = std::stod(value());
       if (!(e2_scale > 0.0) || !std::isfinite(e2_scale)) throw std::runtime_error("--e2-scale needs a factor > 0");
@@ -398,7 +405,7 @@ int run(int argc, char** argv) {
     } else {
       std::fprintf(stderr,
                    "usage: adjustment_eval [--seeds N] [--first-seed S] [--threads N] [--no-colmap] [--colmap-work DIR] "
-                   "[--max-relief G] [--cell PX] [--e1-block RxC] [--e1-ties N] [--e2-block RxC] [--matches-cache DIR] [--affine-step PX] [--inter-sigma PX] [--e2-scale K] [--ground-floor G]\n");
+                   "[--max-relief G] [--cell PX] [--e1-block RxC] [--e1-ties N] [--e2-block RxC] [--matches-cache DIR] [--affine-step PX] [--inter-sigma PX] [--e2-scale K] [--ground-floor G] [--sharpen A,S]\n");
       return 1;
     }
   }
@@ -448,6 +455,7 @@ int run(int argc, char** argv) {
     if (cell > 0) precise_options.correlation.use_fixed_cell(cell);
     if (affine_step >= 0.0) precise_options.correlation.match.affine_step_px = affine_step;
     if (ground_floor >= 0.0) precise_options.correlation.ground_floor_master_gsd = ground_floor;
+    precise_options.correlation.master_sharpen = sharpen;
     precise_options.threads = threads;
     t0 = std::chrono::steady_clock::now();
     char cache_name[200];
@@ -456,7 +464,9 @@ int run(int argc, char** argv) {
                   scene_options.epochs[0].columns, scene_options.epochs[1].rows, scene_options.epochs[1].columns,
                   scene_options.epochs[0].tie_points, cell, max_relief, precise_options.correlation.match.affine_step(),
                   (std::string(e2_scale == 1.0 ? "" : "-e2x" + std::to_string(e2_scale)) +
-                   (ground_floor < 0.0 ? "" : "-floor" + std::to_string(ground_floor)))
+                   (ground_floor < 0.0 ? "" : "-floor" + std::to_string(ground_floor)) +
+                   (sharpen.enabled() ? "-sharpen" + std::to_string(sharpen.amount) + "," + std::to_string(sharpen.sigma_px)
+                                      : std::string()))
                       .c_str());
     const std::string cache_path = matches_cache.empty() ? std::string() : matches_cache + cache_name;
     std::optional<std::vector<EpochPairMatches>> cached;

@@ -6,9 +6,9 @@
 //                         [--min-overlap F] [--radius PX] [--measure intensity|gradient|orientation]
 //                         [--corr-radius PX] [--corr-window PX] [--min-score S] [--min-margin M]
 //                         [--second-pass PX] [--cell PX] [--ground-gsd G] [--no-ncc] [--no-refine]
-//                         [--ncc-correlation] [--calm] [--calm-only changes,sun,cover,film]
+//                         [--ncc-correlation] [--calm] [--calm-only changes,sun,cover,film,...]
 //                         [--max-relief G] [--relief-radius PX] [--preblur S1,S2] [--dump FILE]
-//                         [--affine-step PX] [--scan-scale K] [--e2-scale K]
+//                         [--affine-step PX] [--scan-scale K] [--e2-scale K] [--sharpen A,S]
 //
 // --calm (a diagnostic): the same scenes without their decades, i.e. no landscape change between
 // the epochs and epoch 1 rendered with epoch 2's look (sun, land-cover response, no film defects);
@@ -16,7 +16,9 @@
 // geometry's, not the landscape's. --calm-only LIST takes away only some of the decades, to tell
 // their costs apart: changes (landscape change between the epochs), sun (epoch 1 under epoch 2's
 // sun), cover (epoch 2's land-cover response), film (epoch 2's tone, grain, scanner and dust, blur
-// and no JPEG). --preblur S1,S2 blurs each epoch's images (Gaussian sigma in its own px) before
+// and no JPEG), or one part of the film: tone (its S curve), blur (epoch 2's blur), grain, defects
+// (scanner lines and stripes, scratches, dust). --sharpen A,S sets
+// PreciseCorrelationOptions::master_sharpen (amount A, sigma S master px). --preblur S1,S2 blurs each epoch's images (Gaussian sigma in its own px) before
 // matching. --scan-scale K (> 0) renders every epoch's images K times larger on the same footprints
 // (focal length times K, GSD divided by K), as a finer scan of the same photographs; the DSMs keep
 // their cell of 2 GSD and their errors in metres. --e2-scale K does so for epoch 2 alone (on top of
@@ -103,6 +105,7 @@ struct Arguments {
   std::vector<std::string> calm_only;
   std::string dump;
   double preblur[2] = {0.0, 0.0};
+  double sharpen[2] = {0.0, 1.0};
 };
 
 Arguments parse(int argc, char** argv) {
@@ -158,13 +161,20 @@ Arguments parse(int argc, char** argv) {
     else if (s == "--calm-only") {
       a.calm_only = split_list(value());
       for (const std::string& part : a.calm_only)
-        if (part != "changes" && part != "sun" && part != "cover" && part != "film") {
-          std::fprintf(stderr, "unknown --calm-only part %s (changes, sun, cover, film)\n", part.c_str());
+        if (part != "changes" && part != "sun" && part != "cover" && part != "film" && part != "tone" && part != "blur" &&
+            part != "grain" && part != "defects") {
+          std::fprintf(stderr, "unknown --calm-only part %s (changes, sun, cover, film, tone, blur, grain, defects)\n",
+                       part.c_str());
           std::exit(1);
         }
     }
     else if (s == "--dump") a.dump = value();
-    else if (s == "--preblur") {
+    else if (s == "--sharpen") {
+      if (std::sscanf(value().c_str(), "%lf,%lf", &a.sharpen[0], &a.sharpen[1]) != 2) {
+        std::fprintf(stderr, "--sharpen wants A,S (amount, sigma in master px)\n");
+        std::exit(1);
+      }
+    } else if (s == "--preblur") {
       if (std::sscanf(value().c_str(), "%lf,%lf", &a.preblur[0], &a.preblur[1]) != 2 || !(a.preblur[0] >= 0) ||
           !(a.preblur[1] >= 0)) {
         std::fprintf(stderr, "--preblur wants S1,S2 (sigmas >= 0)\n");
@@ -294,6 +304,8 @@ int main(int argc, char** argv) {
     if (std::isfinite(args.max_relief)) options.correlation.max_relief_gsd = args.max_relief;
     if (std::isfinite(args.relief_radius)) options.correlation.relief_radius_px = args.relief_radius;
     if (std::isfinite(args.affine_step)) options.correlation.match.affine_step_px = args.affine_step;
+    options.correlation.master_sharpen.amount = args.sharpen[0];
+    options.correlation.master_sharpen.sigma_px = args.sharpen[1];
     if (args.no_ncc) options.use_ncc = false;
     if (args.ncc_correlation) options.correlation.use_ncc = true;
     if (args.no_refine) options.ncc.refine = false;
@@ -330,6 +342,19 @@ int main(int argc, char** argv) {
         look1.sun_elevation_deg = look2.sun_elevation_deg;
       }
       if (calm("cover")) look1.land_cover = look2.land_cover;
+      // The film's parts one at a time (film takes them all away at once).
+      if (calm("tone")) look1.tone_curve = look2.tone_curve;
+      if (calm("blur")) look1.blur_sigma_px = look2.blur_sigma_px;
+      if (calm("grain")) {
+        look1.grain_sigma = look2.grain_sigma;
+        look1.grain_size_px = look2.grain_size_px;
+      }
+      if (calm("defects")) {
+        look1.scan_line_sigma = look2.scan_line_sigma;
+        look1.scan_stripes = look2.scan_stripes;
+        look1.scratches = look2.scratches;
+        look1.dust_per_megapixel = look2.dust_per_megapixel;
+      }
       if (calm("film")) {
         const LookOptions keep = look1;
         look1 = look2;

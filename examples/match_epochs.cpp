@@ -94,6 +94,10 @@ const char* kUsage =
     "                                         guided, the paper's; correlation's is at least 1.5 GSD\n"
     "                                         of the epoch-1 image); larger for scans much finer than\n"
     "                                         their DSMs' errors (docs/precise-matching.md)\n"
+    "  --sharpen A[,S]                        correlation: sharpen the epoch-1 images before matching,\n"
+    "                                         an unsharp mask of amount A and Gaussian sigma S px\n"
+    "                                         (default S 1; A 0 = off): for film scans blurred\n"
+    "                                         beyond their grain (docs/correlation-matching.md)\n"
     "  --no-ground-filter                     skip the 3D Helmert RANSAC\n"
     "  --no-ncc                               skip the NCC validator\n"
     "  --no-pictures                          do not write pairs/*.png\n"
@@ -405,6 +409,9 @@ void write_report(const std::string& path, const EpochFolder& e1, const EpochFol
       << ", \"threshold_gsd\": " << ground_threshold_gsd(options, method);
   if (method == "correlation") out << ", \"floor_master_gsd\": " << options.correlation.ground_floor_master_gsd;
   out << "},\n";
+  if (method == "correlation")
+    out << "  \"master_sharpen\": {\"amount\": " << options.correlation.master_sharpen.amount
+        << ", \"sigma_px\": " << options.correlation.master_sharpen.sigma_px << "},\n";
   out << "  \"precise_matching\": {\"success\": " << (precise.success ? "true" : "false")
       << ", \"message\": " << quoted(precise.message) << ", \"tentative\": " << precise.tentative
       << ", \"after_ground_filter\": " << precise.grounded << ", \"final\": " << precise.final_matches
@@ -439,6 +446,7 @@ int main(int argc, char** argv) {
   std::optional<int> cell;  // unset: the default cell
   std::optional<long long> max_points;  // unset: PreciseCorrelationOptions' bound
   std::optional<double> ground_gsd;     // unset: the method's default threshold
+  std::optional<std::string> sharpen;   // unset: PreciseCorrelationOptions' master_sharpen
   GeoTiffReadOptions dsm_read;
   std::size_t threads = 0;
 #if DIACHRON_MATCH_EPOCHS_ADJUST
@@ -473,6 +481,7 @@ int main(int argc, char** argv) {
       else if (a == "--ncc-threshold") options.ncc.min_ncc = std::stod(value());
       else if (a == "--no-refine") options.ncc.refine = false;
       else if (a == "--ground-gsd") ground_gsd = std::stod(value());
+      else if (a == "--sharpen") sharpen = value();
       else if (a == "--no-ground-filter") options.use_ground_filter = false;
       else if (a == "--no-ncc") options.use_ncc = false;
       else if (a == "--no-pictures") pictures = false;
@@ -525,6 +534,17 @@ int main(int argc, char** argv) {
                      "--ground-gsd wants a threshold > 0 (GSD of the secondary image), got " << *ground_gsd);
       DIACHRON_CHECK(options.use_ground_filter, "--ground-gsd and --no-ground-filter contradict each other");
       ground_threshold_gsd(options, method) = *ground_gsd;
+    }
+    if (sharpen) {
+      DIACHRON_CHECK(method == "correlation", "--sharpen goes with --method correlation");
+      UnsharpMaskOptions& u = options.correlation.master_sharpen;
+      u.sigma_px = 1.0;
+      char rest = 0;
+      const int n = std::sscanf(sharpen->c_str(), "%lf,%lf%c", &u.amount, &u.sigma_px, &rest);
+      const int expected = sharpen->find(',') == std::string::npos ? 1 : 2;
+      DIACHRON_CHECK(n == expected && std::isfinite(u.amount) && u.amount >= 0.0 && u.amount <= 20.0 &&
+                         std::isfinite(u.sigma_px) && u.sigma_px > 0.0 && u.sigma_px <= 20.0,
+                     "--sharpen wants A[,S], an amount in [0, 20] and a sigma in (0, 20] px, got '" << *sharpen << "'");
     }
     DIACHRON_CHECK(matcher_name == "sift" || matcher_name == "rootsift" || matcher_name == "akaze" ||
                        matcher_name == "xfeat",

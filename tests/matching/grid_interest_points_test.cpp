@@ -8,9 +8,10 @@
 #include <catch2/catch.hpp>
 
 #include <diachron/core/error.hpp>
-#include <diachron/core/random.hpp>
 #include <diachron/core/raster.hpp>
 #include <diachron/matching/grid_interest_points.hpp>
+
+#include "support/rasters.hpp"
 
 using diachron::GridInterestOptions;
 using diachron::InterestPoint;
@@ -18,12 +19,7 @@ using diachron::Raster;
 
 namespace {
 
-Raster<std::uint8_t> noise(int w, int h, std::uint64_t seed) {
-  diachron::RandomStream rng(seed);
-  Raster<std::uint8_t> img(w, h);
-  for (auto& v : img) v = static_cast<std::uint8_t>(rng.uniform(0.0, 255.0));
-  return img;
-}
+Raster<std::uint8_t> noise(int w, int h, std::uint64_t seed) { return diachron::test::uniform_noise_image(w, h, seed); }
 
 // Smallest structure-tensor eigenvalue per pixel over the window, computed directly.
 double brute_strength(const Raster<std::uint8_t>& img, int x, int y, int window) {

@@ -242,6 +242,11 @@ TEST_CASE("correlation precise matching: correct matches on every pair, whatever
                                                  f.pairs, bad),
                     Catch::Contains("ground_floor_master_gsd must be finite and >= 0"));
   bad = PreciseMatchingOptions{};
+  bad.correlation.master_sharpen.amount = -0.5;
+  CHECK_THROWS_WITH(precise_matching_correlation(epoch_view(f, 0), epoch_view(f, 1), f.scene.epoch2_from_epoch1(),
+                                                 f.pairs, bad),
+                    Catch::Contains("UnsharpMaskOptions::amount"));
+  bad = PreciseMatchingOptions{};
   bad.correlation.ground_threshold_gsd = 0.0;
   CHECK_THROWS_AS(precise_matching_correlation(epoch_view(f, 0), epoch_view(f, 1), f.scene.epoch2_from_epoch1(),
                                                f.pairs, bad),

@@ -5,7 +5,8 @@
 # (renamed here, before the run) stay as they were. A sparse point grid keeps it short: the names are
 # the point, not the number of matches. The grid is asked for as a bound of 1875 points per image,
 # which on 800 x 600 px is 16 px cells exactly; report.json must say that cell. The ground filter's
-# threshold is asked for too (--ground-gsd 4), and report.json must say it was used.
+# threshold is asked for too (--ground-gsd 4), and the epoch-1 images sharpened (--sharpen 1.5,0.8):
+# report.json must say both were used.
 #   cmake -DMAKE_SCENE=... -DMATCH_EPOCHS=... -DWORK=... -P match_epochs_names.cmake
 include("${CMAKE_CURRENT_LIST_DIR}/scene_folders.cmake")
 fresh_scene("${WORK}" --image-size 800x600 --images-per-epoch 2x2 --seed 1)
@@ -23,7 +24,7 @@ endforeach()
 file(WRITE "${e2}/images.txt" "${images}")
 folder_fingerprint("${WORK}/scene" before)
 execute_process(COMMAND "${MATCH_EPOCHS}" "${WORK}/scene/e1" "${e2}" --out "${WORK}/out" --no-pictures --max-points 1875
-                        --ground-gsd 4
+                        --ground-gsd 4 --sharpen 1.5,0.8
                 RESULT_VARIABLE status OUTPUT_VARIABLE out ERROR_VARIABLE err)
 if(NOT status EQUAL 0)
   message(FATAL_ERROR "match_epochs exited with ${status}, expected 0\n${out}\n${err}")
@@ -64,6 +65,9 @@ foreach(c IN LISTS cells)
 endforeach()
 if(NOT report MATCHES "\"ground_filter\": {\"on\": true, \"threshold_gsd\": 4, \"floor_master_gsd\": 1.5}")
   message(FATAL_ERROR "report.json does not give the ground filter's threshold as 4 GSD")
+endif()
+if(NOT report MATCHES "\"master_sharpen\": {\"amount\": 1.5, \"sigma_px\": 0.8}")
+  message(FATAL_ERROR "report.json does not give the sharpening asked for")
 endif()
 folder_fingerprint("${WORK}/scene" after)
 if(NOT before STREQUAL after)

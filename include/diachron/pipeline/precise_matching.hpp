@@ -36,6 +36,7 @@
 #include <diachron/matching/grid_interest_points.hpp>
 #include <diachron/matching/guided_matcher.hpp>
 #include <diachron/matching/point_match.hpp>
+#include <diachron/matching/unsharp_mask.hpp>
 #include <diachron/pipeline/overlapping_pairs.hpp>
 #include <diachron/terrain/dsm.hpp>
 #include <diachron/terrain/gsd.hpp>
@@ -116,6 +117,10 @@ struct PreciseCorrelationOptions {
   /// Radius of that disc, master px (> 0): the correlation window's size reaches the shadows cast
   /// into a window by what stands just outside it.
   double relief_radius_px = 21.0;
+  /// Sharpening of the master image before its points are chosen and correlated (off by default).
+  /// A scanned film's blur leaves its finest detail weak against the grain (matching/unsharp_mask.hpp,
+  /// docs/correlation-matching.md "The film's parts, and sharpening the film").
+  UnsharpMaskOptions master_sharpen{};
 
   /// Cells of px master px on every image, whatever its size (the point bound off): what the
   /// programs' --cell asks for.
@@ -128,6 +133,7 @@ struct PreciseCorrelationOptions {
   void check() const {
     interest.check();
     match.check();
+    master_sharpen.check();
     DIACHRON_CHECK(std::isfinite(max_relief_gsd) && max_relief_gsd >= 0.0,
                    "PreciseCorrelationOptions::max_relief_gsd must be finite and >= 0, got " << max_relief_gsd);
     DIACHRON_CHECK(std::isfinite(relief_radius_px) && relief_radius_px > 0.0,
@@ -414,12 +420,17 @@ PrecisePairReport precise_match_pair_correlation(const PreciseImage<MasterFrame>
           std::max(filters.ground.min_threshold, co.ground_floor_master_gsd * gsd1 * epoch2_from_epoch1.scale);
   }
   filters.use_ncc = options.use_ncc && co.use_ncc;
+  // The sharpened master serves the points and the correlation; the filters and the report keep the
+  // image as given (the NCC validator, when on, sees the original).
+  const Raster<std::uint8_t> sharpened =
+      co.master_sharpen.enabled() ? unsharp_mask(*master.pixels, co.master_sharpen) : Raster<std::uint8_t>{};
+  const Raster<std::uint8_t>& master_pixels = co.master_sharpen.enabled() ? sharpened : *master.pixels;
   GridInterestOptions interest = co.interest;
   interest.cell_px = effective_cell_px(co, master.pixels->width(), master.pixels->height());
   // The window must fit whole around a point, so points keep the correlation window's margin.
   interest.border_px = std::max(interest.border_px, co.match.window_px / 2 + 2);
   std::vector<Eigen::Vector2d> points;
-  for (const InterestPoint& p : grid_interest_points(*master.pixels, interest)) points.push_back(p.position);
+  for (const InterestPoint& p : grid_interest_points(master_pixels, interest)) points.push_back(p.position);
   const auto transfer = make_dsm_transfer(*master.frame, master_dsm, *secondary.frame, epoch2_from_epoch1);
   std::string relief_note;
   if (co.max_relief_gsd > 0.0) {
@@ -428,7 +439,7 @@ PrecisePairReport precise_match_pair_correlation(const PreciseImage<MasterFrame>
                                             epoch2_from_epoch1, co);
     relief_note = ", " + std::to_string(before - points.size()) + " of them skipped on relief";
   }
-  CorrelationMatchResult first = correlation_match(*master.pixels, *secondary.pixels, points, transfer, co.match);
+  CorrelationMatchResult first = correlation_match(master_pixels, *secondary.pixels, points, transfer, co.match);
   const auto describe = [](const CorrelationMatchResult& r) {
     return std::to_string(r.matches.size()) + " matched, " + std::to_string(r.low_score) + " low score, " +
            std::to_string(r.ambiguous) + " ambiguous, " + std::to_string(r.at_border) + " at the border, " +
@@ -451,7 +462,7 @@ PrecisePairReport precise_match_pair_correlation(const PreciseImage<MasterFrame>
         CorrelationMatchOptions narrow = co.match;
         narrow.search_radius_px = co.second_pass_radius_px;
         narrow.exclusion_px = std::min(narrow.exclusion_px, std::max(1, narrow.search_radius_px - 1));
-        CorrelationMatchResult again = correlation_match(*master.pixels, *secondary.pixels, points, transfer2, narrow);
+        CorrelationMatchResult again = correlation_match(master_pixels, *secondary.pixels, points, transfer2, narrow);
         second_pass = "first pass: " + describe(first) + "; second pass: " + describe(again);
         report.tentative = std::move(again.matches);
       } else {
