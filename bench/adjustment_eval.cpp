@@ -61,7 +61,8 @@
 // (PreciseCorrelationOptions::ground_floor_master_gsd, default 1.5; 0 = the threshold in secondary GSD alone).
 // --sharpen A,S: PreciseCorrelationOptions::master_sharpen (amount A, Gaussian sigma S master px).
 // --matches-cache DIR: precise matching's inter-epoch matches are read from DIR when a Homol folder
-// for the seed and the options that shape them (blocks, tie points, cell, relief, affine step) is
+// for the seed and the options that shape them (blocks, tie points, cell, relief, affine step, epoch
+// 2's scale, the ground filter's floor, the sharpening) is
 // there, and written there otherwise (full precision). Precise matching is most of a seed's time (3 to 6 min
 // with a 5 x 6 reference); the adjustment variants then run on the same matches in seconds. The file
 // name does not know the code: empty DIR after changing the matcher or the scenes.
@@ -458,16 +459,18 @@ int run(int argc, char** argv) {
     precise_options.correlation.master_sharpen = sharpen;
     precise_options.threads = threads;
     t0 = std::chrono::steady_clock::now();
+    // The options left at their defaults stay out of the name, so that earlier caches still match.
+    std::string optional_keys;
+    if (e2_scale != 1.0) optional_keys += "-e2x" + std::to_string(e2_scale);
+    if (ground_floor >= 0.0) optional_keys += "-floor" + std::to_string(ground_floor);
+    if (sharpen.enabled())
+      optional_keys += "-sharpen" + std::to_string(sharpen.amount) + "," + std::to_string(sharpen.sigma_px);
     char cache_name[200];
     std::snprintf(cache_name, sizeof cache_name, "/seed%llu-e1%dx%d-e2%dx%d-ties%d-cell%d-relief%g-step%g%s",
                   static_cast<unsigned long long>(scene_options.seed), scene_options.epochs[0].rows,
                   scene_options.epochs[0].columns, scene_options.epochs[1].rows, scene_options.epochs[1].columns,
                   scene_options.epochs[0].tie_points, cell, max_relief, precise_options.correlation.match.affine_step(),
-                  (std::string(e2_scale == 1.0 ? "" : "-e2x" + std::to_string(e2_scale)) +
-                   (ground_floor < 0.0 ? "" : "-floor" + std::to_string(ground_floor)) +
-                   (sharpen.enabled() ? "-sharpen" + std::to_string(sharpen.amount) + "," + std::to_string(sharpen.sigma_px)
-                                      : std::string()))
-                      .c_str());
+                  optional_keys.c_str());
     const std::string cache_path = matches_cache.empty() ? std::string() : matches_cache + cache_name;
     std::optional<std::vector<EpochPairMatches>> cached;
     if (!cache_path.empty()) cached = read_matches(cache_path, overlap.pairs);

@@ -18,8 +18,8 @@
 // sun), cover (epoch 2's land-cover response), film (epoch 2's tone, grain, scanner and dust, blur
 // and no JPEG), or one part of the film: tone (its S curve), blur (epoch 2's blur), grain, defects
 // (scanner lines and stripes, scratches, dust). --sharpen A,S sets
-// PreciseCorrelationOptions::master_sharpen (amount A, sigma S master px). --preblur S1,S2 blurs each epoch's images (Gaussian sigma in its own px) before
-// matching. --scan-scale K (> 0) renders every epoch's images K times larger on the same footprints
+// PreciseCorrelationOptions::master_sharpen (amount A, sigma S master px). --preblur S1,S2 blurs
+// each epoch's images (Gaussian sigma in its own px) before matching. --scan-scale K (> 0) renders every epoch's images K times larger on the same footprints
 // (focal length times K, GSD divided by K), as a finer scan of the same photographs; the DSMs keep
 // their cell of 2 GSD and their errors in metres. --e2-scale K does so for epoch 2 alone (on top of
 // --scan-scale), widening the resolution gap between the epochs from the preset's 2 to 2 K.
@@ -105,7 +105,7 @@ struct Arguments {
   std::vector<std::string> calm_only;
   std::string dump;
   double preblur[2] = {0.0, 0.0};
-  double sharpen[2] = {0.0, 1.0};
+  UnsharpMaskOptions sharpen;
 };
 
 Arguments parse(int argc, char** argv) {
@@ -160,17 +160,18 @@ Arguments parse(int argc, char** argv) {
     else if (s == "--calm") a.calm = true;
     else if (s == "--calm-only") {
       a.calm_only = split_list(value());
+      const std::vector<std::string> parts = {"changes", "sun", "cover", "film", "tone", "blur", "grain", "defects"};
       for (const std::string& part : a.calm_only)
-        if (part != "changes" && part != "sun" && part != "cover" && part != "film" && part != "tone" && part != "blur" &&
-            part != "grain" && part != "defects") {
-          std::fprintf(stderr, "unknown --calm-only part %s (changes, sun, cover, film, tone, blur, grain, defects)\n",
-                       part.c_str());
+        if (std::find(parts.begin(), parts.end(), part) == parts.end()) {
+          std::string known;
+          for (const std::string& p : parts) known += (known.empty() ? "" : ", ") + p;
+          std::fprintf(stderr, "unknown --calm-only part %s (%s)\n", part.c_str(), known.c_str());
           std::exit(1);
         }
     }
     else if (s == "--dump") a.dump = value();
     else if (s == "--sharpen") {
-      if (std::sscanf(value().c_str(), "%lf,%lf", &a.sharpen[0], &a.sharpen[1]) != 2) {
+      if (std::sscanf(value().c_str(), "%lf,%lf", &a.sharpen.amount, &a.sharpen.sigma_px) != 2) {
         std::fprintf(stderr, "--sharpen wants A,S (amount, sigma in master px)\n");
         std::exit(1);
       }
@@ -304,8 +305,7 @@ int main(int argc, char** argv) {
     if (std::isfinite(args.max_relief)) options.correlation.max_relief_gsd = args.max_relief;
     if (std::isfinite(args.relief_radius)) options.correlation.relief_radius_px = args.relief_radius;
     if (std::isfinite(args.affine_step)) options.correlation.match.affine_step_px = args.affine_step;
-    options.correlation.master_sharpen.amount = args.sharpen[0];
-    options.correlation.master_sharpen.sigma_px = args.sharpen[1];
+    options.correlation.master_sharpen = args.sharpen;
     if (args.no_ncc) options.use_ncc = false;
     if (args.ncc_correlation) options.correlation.use_ncc = true;
     if (args.no_refine) options.ncc.refine = false;

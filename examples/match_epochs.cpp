@@ -541,10 +541,15 @@ int main(int argc, char** argv) {
       u.sigma_px = 1.0;
       char rest = 0;
       const int n = std::sscanf(sharpen->c_str(), "%lf,%lf%c", &u.amount, &u.sigma_px, &rest);
-      const int expected = sharpen->find(',') == std::string::npos ? 1 : 2;
-      DIACHRON_CHECK(n == expected && std::isfinite(u.amount) && u.amount >= 0.0 && u.amount <= 20.0 &&
-                         std::isfinite(u.sigma_px) && u.sigma_px > 0.0 && u.sigma_px <= 20.0,
-                     "--sharpen wants A[,S], an amount in [0, 20] and a sigma in (0, 20] px, got '" << *sharpen << "'");
+      // The ranges are UnsharpMaskOptions::check()'s; the program says them in its own words.
+      bool valid = n == (sharpen->find(',') == std::string::npos ? 1 : 2);
+      try {
+        if (valid) u.check();
+      } catch (const Error&) {
+        valid = false;
+      }
+      DIACHRON_CHECK(valid, "--sharpen wants A[,S], an amount in [0, 20] and a sigma in (0, 20] px, got '" << *sharpen
+                                                                                                           << "'");
     }
     DIACHRON_CHECK(matcher_name == "sift" || matcher_name == "rootsift" || matcher_name == "akaze" ||
                        matcher_name == "xfeat",

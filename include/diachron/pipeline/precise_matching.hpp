@@ -247,10 +247,11 @@ inline double precise_seconds_since(std::chrono::steady_clock::time_point start)
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
-// GSD of the secondary image at its centre on its DSM, or over the DSM's mean height where the
-// centre ray misses the DSM (a hole), as MicMac measures it (at AltiSol).
+// GSD of an image (the secondary for the ground filter, the master for its floor) at its centre on
+// its DSM, or over the DSM's mean height where the centre ray misses the DSM (a hole), as MicMac
+// measures the secondary's (at AltiSol).
 template <class Frame>
-double secondary_gsd(const Frame& frame, const Dsm& dsm, int width, int height) {
+double image_gsd(const Frame& frame, const Dsm& dsm, int width, int height) {
   const Eigen::Vector2d centre(0.5 * (width - 1), 0.5 * (height - 1));
   if (const std::optional<double> g = gsd_on_dsm(frame, dsm, centre); g && *g > 0.0) return *g;
   const double z = dsm.statistics().mean;
@@ -266,8 +267,8 @@ std::vector<Eigen::Vector2d> points_on_plane_ground(const std::vector<Eigen::Vec
                                                     const PreciseImage<SecondaryFrame>& secondary,
                                                     const Dsm& secondary_dsm, const Helmert3& epoch2_from_epoch1,
                                                     const PreciseCorrelationOptions& options) {
-  const double master_gsd = secondary_gsd(*master.frame, master_dsm, master.pixels->width(), master.pixels->height());
-  const double gsd2 = secondary_gsd(*secondary.frame, secondary_dsm, secondary.pixels->width(), secondary.pixels->height());
+  const double master_gsd = image_gsd(*master.frame, master_dsm, master.pixels->width(), master.pixels->height());
+  const double gsd2 = image_gsd(*secondary.frame, secondary_dsm, secondary.pixels->width(), secondary.pixels->height());
   if (!std::isfinite(master_gsd) || !std::isfinite(gsd2)) return points;  // no scale to judge by: keep all
   const double radius1 = options.relief_radius_px * master_gsd;          // master frame units
   const double radius2 = radius1 * epoch2_from_epoch1.scale;             // secondary frame units
@@ -317,7 +318,7 @@ void filter_precise_pair(PrecisePairReport& report, const PreciseImage<MasterFra
   if (options.use_ground_filter) {
     const DsmLift<SecondaryFrame> secondary_lift(*secondary.frame, secondary_dsm);
     const auto master_lift = [&transfer](const Eigen::Vector2d& px) { return transfer.secondary_point(px); };
-    const double gsd = detail::secondary_gsd(*secondary.frame, secondary_dsm, secondary.pixels->width(),
+    const double gsd = detail::image_gsd(*secondary.frame, secondary_dsm, secondary.pixels->width(),
                                              secondary.pixels->height());
     if (!std::isfinite(gsd)) {
       report.message = "the secondary image's GSD cannot be measured (its centre ray misses the DSM plane)";
@@ -414,7 +415,7 @@ PrecisePairReport precise_match_pair_correlation(const PreciseImage<MasterFrame>
   // The floor in master GSD, in the secondary frame (none when the master's GSD cannot be measured).
   if (co.ground_floor_master_gsd > 0.0) {
     const double gsd1 =
-        detail::secondary_gsd(*master.frame, master_dsm, master.pixels->width(), master.pixels->height());
+        detail::image_gsd(*master.frame, master_dsm, master.pixels->width(), master.pixels->height());
     if (std::isfinite(gsd1))
       filters.ground.min_threshold =
           std::max(filters.ground.min_threshold, co.ground_floor_master_gsd * gsd1 * epoch2_from_epoch1.scale);
@@ -449,7 +450,7 @@ PrecisePairReport precise_match_pair_correlation(const PreciseImage<MasterFrame>
   std::string second_pass = "first pass: " + describe(first) + "; no second pass";
   report.tentative = first.matches;
   if (co.second_pass_radius_px > 0 && report.tentative.size() >= filters.ground.min_pairs) {
-    const double gsd = detail::secondary_gsd(*secondary.frame, secondary_dsm, secondary.pixels->width(),
+    const double gsd = detail::image_gsd(*secondary.frame, secondary_dsm, secondary.pixels->width(),
                                              secondary.pixels->height());
     if (std::isfinite(gsd)) {
       const DsmLift<SecondaryFrame> secondary_lift(*secondary.frame, secondary_dsm);
