@@ -9,6 +9,7 @@
 //                         [--ncc-correlation] [--calm] [--calm-only changes,sun,cover,film,...]
 //                         [--max-relief G] [--relief-radius PX] [--preblur S1,S2] [--dump FILE]
 //                         [--affine-step PX] [--scan-scale K] [--e2-scale K] [--sharpen A,S]
+//                         [--scan-frame PX [--no-masks]]
 //
 // --calm (a diagnostic): the same scenes without their decades, i.e. no landscape change between
 // the epochs and epoch 1 rendered with epoch 2's look (sun, land-cover response, no film defects);
@@ -23,6 +24,8 @@
 // (focal length times K, GSD divided by K), as a finer scan of the same photographs; the DSMs keep
 // their cell of 2 GSD and their errors in metres. --e2-scale K does so for epoch 2 alone (on top of
 // --scan-scale), widening the resolution gap between the epochs from the preset's 2 to 2 K.
+// --scan-frame PX draws a scan's film frame, a band of PX px (synth/scan_frame.hpp), over epoch 1's
+// images and hands their masks to precise matching; --no-masks keeps the frame but not the masks.
 // --dump FILE writes every final match of the methods run: positions, score, true error
 // and its vector (epoch-2 px, NaN when the truth cannot decide), the truth's status, its residual
 // to the rough transfer's prediction, the correlation surface's second derivatives at the match
@@ -60,6 +63,7 @@
 #include <diachron/pipeline/overlapping_pairs.hpp>
 #include <diachron/pipeline/precise_matching.hpp>
 #include <diachron/pipeline/rough_coregistration.hpp>
+#include <diachron/synth/scan_frame.hpp>
 #include <diachron/synth/scene.hpp>
 #include <diachron/vision/akaze.hpp>
 #include <diachron/vision/extractor_pair_matcher.hpp>
@@ -106,6 +110,8 @@ struct Arguments {
   std::string dump;
   double preblur[2] = {0.0, 0.0};
   UnsharpMaskOptions sharpen;
+  int scan_frame = 0;
+  bool no_masks = false;
 };
 
 Arguments parse(int argc, char** argv) {
@@ -170,6 +176,13 @@ Arguments parse(int argc, char** argv) {
         }
     }
     else if (s == "--dump") a.dump = value();
+    else if (s == "--scan-frame") {
+      a.scan_frame = std::atoi(value().c_str());
+      if (a.scan_frame <= 0) {
+        std::fprintf(stderr, "--scan-frame wants a band width > 0 px\n");
+        std::exit(1);
+      }
+    } else if (s == "--no-masks") a.no_masks = true;
     else if (s == "--sharpen") {
       if (std::sscanf(value().c_str(), "%lf,%lf", &a.sharpen.amount, &a.sharpen.sigma_px) != 2) {
         std::fprintf(stderr, "--sharpen wants A,S (amount, sigma in master px)\n");
@@ -366,7 +379,16 @@ int main(int argc, char** argv) {
       for (std::size_t e = 0; e < scene_options.epochs.size(); ++e)
         scale_images(scene_options.epochs[e], args.scan_scale * (e == 1 ? args.e2_scale : 1.0));
       auto t0 = std::chrono::steady_clock::now();
-      const Scene scene = generate_scene(scene_options);
+      Scene scene = generate_scene(scene_options);
+      // Epoch 1's scans with their film frame; its masks are handed over unless --no-masks.
+      std::vector<Raster<std::uint8_t>> masks1;
+      if (args.scan_frame > 0)
+        for (SyntheticImage& image : scene.epochs[0].images) {
+          ScanFrameOptions frame;
+          frame.band_px = args.scan_frame;
+          frame.seed = scene.seed * 1000 + masks1.size();
+          masks1.push_back(draw_scan_frame(image.pixels, frame));
+        }
       std::fprintf(stderr, "seed %llu: scene in %.1f s\n", static_cast<unsigned long long>(scene_options.seed),
                    seconds_since(t0));
       const SyntheticEpoch& e1 = scene.epochs[0];
@@ -416,6 +438,7 @@ int main(int argc, char** argv) {
         return r;
       };
       PreciseEpoch<Frame<FraserAffine>> p1{frames1, [&](std::size_t i) { return blurred(e1.images[i].pixels, blur[0]); }, &e1.dsm};
+      if (!masks1.empty() && !args.no_masks) p1.load_mask = [&masks1](std::size_t i) { return masks1[i]; };
       PreciseEpoch<Frame<FraserAffine>> p2{frames2, [&](std::size_t i) { return blurred(e2.images[i].pixels, blur[1]); }, &e2.dsm};
       const MatchTruthScorer truth(scene);
 

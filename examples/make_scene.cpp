@@ -4,7 +4,8 @@
 /// DSM), with the truth apart in truth/ (docs/synthetic-scenes.md), then prints a summary.
 ///
 ///   make_scene OUT_DIR [--preset plain|decades] [--seed N] [--dem PATH] [--images-per-epoch RxC]
-///              [--image-size WxH] [--epochs N] [--check-points N] [--dome M] [--offset X,Y] [--threads N]
+///              [--image-size WxH] [--epochs N] [--check-points N] [--dome M] [--offset X,Y]
+///              [--scan-frame PX] [--threads N]
 ///
 /// `--preset decades` starts from SceneOptions::decades_apart() and the other flags apply on top of
 /// it, so that `make_scene OUT --preset decades --seed N` writes exactly the scene generate_scene()
@@ -25,7 +26,9 @@
 #include <vector>
 
 #include <diachron/io/dsm_reproject.hpp>
+#include <diachron/io/folders.hpp>
 #include <diachron/io/geotiff.hpp>
+#include <diachron/synth/scan_frame.hpp>
 #include <diachron/synth/scene.hpp>
 #include <diachron/terrain/crs_kind.hpp>
 #include <diachron/synth/scene_io.hpp>
@@ -46,6 +49,9 @@ constexpr const char* kUsage =
     "  --dome M                 dome bending of every epoch DSM, metres (plain default 0)\n"
     "  --offset X,Y             world X, Y of the scene centre, metres (default 0,0; procedural only)\n"
     "  --flying-height M        flying height of every epoch above the mean ground, metres\n"
+    "  --scan-frame PX          draw a scan's film frame (a dark band of PX px with fiducial marks and a\n"
+    "                           data strip) over the images of every epoch but the last, and write their\n"
+    "                           masks as OUT/<epoch>/masks/<image>.png (0 on the frame; default 0: none)\n"
     "  --threads N              worker threads, 0 = all cores (default 0)\n";
 
 // Flags that are not given leave the preset's value alone.
@@ -58,6 +64,7 @@ struct Arguments {
   std::optional<int> epochs, check_points;
   std::optional<double> dome, flying_height;
   std::optional<std::pair<double, double>> offset;
+  int scan_frame_px = 0;
   std::size_t threads = 0;
 };
 
@@ -133,6 +140,9 @@ Arguments parse(int argc, char** argv) {
       } else if (arg == "--flying-height") {
         a.flying_height = parse_number<double>(value, arg);
         if (!(*a.flying_height > 0.0)) usage_error("--flying-height must be > 0");
+      } else if (arg == "--scan-frame") {
+        a.scan_frame_px = parse_number<int>(value, arg);
+        if (a.scan_frame_px < 0) usage_error("--scan-frame must be >= 0");
       } else if (arg == "--threads") {
         a.threads = static_cast<std::size_t>(parse_number<std::uint64_t>(value, arg));
       } else {
@@ -215,10 +225,27 @@ int main(int argc, char** argv) {
 
     const auto t0 = std::chrono::steady_clock::now();
     const std::clock_t c0 = std::clock();
-    const diachron::Scene scene = diachron::generate_scene(options);
+    diachron::Scene scene = diachron::generate_scene(options);
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     const double cpu_seconds = static_cast<double>(std::clock() - c0) / CLOCKS_PER_SEC;
+    // The film epochs' scans keep their frame; the masks say where it is (COLMAP's names).
+    std::vector<std::pair<std::string, diachron::Raster<std::uint8_t>>> masks;
+    if (args.scan_frame_px > 0)
+      for (std::size_t e = 0; e + 1 < scene.epochs.size(); ++e)
+        for (std::size_t i = 0; i < scene.epochs[e].images.size(); ++i) {
+          diachron::SyntheticImage& image = scene.epochs[e].images[i];
+          diachron::ScanFrameOptions frame;
+          frame.band_px = args.scan_frame_px;
+          frame.seed = scene.seed * 1000 + e * 100 + i;
+          masks.emplace_back(scene.epochs[e].name + "/masks/" + image.name + ".png.png",
+                             diachron::draw_scan_frame(image.pixels, frame));
+        }
     diachron::write_scene(scene, args.out_dir);
+    for (const auto& [name, mask] : masks) {
+      const std::string path = args.out_dir + "/" + name;
+      diachron::make_folders(path.substr(0, path.rfind('/')), "make_scene");
+      diachron::write_image_u8(mask, path);
+    }
 
     std::printf("scene written to %s (preset %s, seed %llu, generated in %.2f s, %.2f s of CPU)\n",
                 args.out_dir.c_str(), args.preset.c_str(), static_cast<unsigned long long>(scene.seed), seconds,

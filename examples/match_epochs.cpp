@@ -4,7 +4,9 @@
 //   match_epochs EPOCH1_DIR EPOCH2_DIR --out DIR [options]
 //
 // Each epoch folder holds a COLMAP text model (cameras.txt, images.txt, points3D.txt), images/ and
-// dsm.tif in the model's frame (what make_scene writes). Epoch 1 is the master (moved onto epoch 2).
+// dsm.tif in the model's frame (what make_scene writes), and optionally masks/<image name>.png (COLMAP's
+// masks: 0 where no match may be, e.g. the scan's frame and fiducial marks). Epoch 1 is the master
+// (moved onto epoch 2).
 // Writes
 //   DIR/rough_helmert.json  the rough co-registration, X2 = scale R X1 + translation (helmert.json's keys)
 //   DIR/Homol/              final inter-epoch tie points, MicMac Homol (both directions; names as in images.txt,
@@ -67,6 +69,8 @@ using namespace diachron;
 
 const char* kUsage =
     "usage: match_epochs EPOCH1_DIR EPOCH2_DIR --out DIR [options]\n"
+    "  each EPOCH_DIR: cameras.txt images.txt points3D.txt images/ dsm.tif, optionally masks/<image name>.png\n"
+    "  (0 where no match may be: the scan's frame, fiducial marks, clouds)\n"
     "  --method correlation|patch|guided      tentative matches: interest points correlated around their\n"
     "                                         DSM + Helmert prediction (default), one-to-one transfer-\n"
     "                                         guided tiles, or keypoints guided by DSM + Helmert\n"
@@ -412,6 +416,7 @@ void write_report(const std::string& path, const EpochFolder& e1, const EpochFol
   if (method == "correlation")
     out << "  \"master_sharpen\": {\"amount\": " << options.correlation.master_sharpen.amount
         << ", \"sigma_px\": " << options.correlation.master_sharpen.sigma_px << "},\n";
+ out << "  \"masks\": {\"epoch1\": " << e1.masks() << ", \"epoch2\": " << e2.masks() << "},\n";
   out << "  \"precise_matching\": {\"success\": " << (precise.success ? "true" : "false")
       << ", \"message\": " << quoted(precise.message) << ", \"tentative\": " << precise.tentative
       << ", \"after_ground_filter\": " << precise.grounded << ", \"final\": " << precise.final_matches
@@ -422,8 +427,9 @@ void write_report(const std::string& path, const EpochFolder& e1, const EpochFol
     const ImagePairOverlap& o = overlap.pairs[k];
     out << (k ? ",\n      " : "\n      ") << "{\"master\": " << quoted(e1.images[p.master].name)
         << ", \"secondary\": " << quoted(e2.images[p.secondary].name) << ", \"overlap_fraction\": " << o.fraction_of_smaller
-        << ", \"tentative\": " << p.tentative.size() << ", \"after_ground_filter\": " << p.grounded.size()
-        << ", \"final\": " << p.matches.size() << ", \"message\": " << quoted(p.message)
+        << ", \"tentative\": " << p.tentative.size() << ", \"masked\": " << p.masked
+        << ", \"after_ground_filter\": " << p.grounded.size() << ", \"final\": " << p.matches.size()
+        << ", \"message\": " << quoted(p.message)
         << ", \"seconds\": {\"images\": " << p.seconds.images << ", \"tentative\": " << p.seconds.tentative
         << ", \"ground\": " << p.seconds.ground << ", \"ncc\": " << p.seconds.ncc << ", \"total\": " << p.seconds.total
         << "}}";
@@ -583,8 +589,9 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "image names with a folder or shared by both epochs: Homol/ uses e1_/e2_ names "
                            "(DIR/homol_names.txt)\n");
     if (!quiet)
-      std::fprintf(stderr, "epoch 1: %zu images, DSM %d x %d; epoch 2: %zu images, DSM %d x %d\n", e1.images.size(),
-                   e1.dsm.width(), e1.dsm.height(), e2.images.size(), e2.dsm.width(), e2.dsm.height());
+      std::fprintf(stderr, "epoch 1: %zu images (%zu masked), DSM %d x %d; epoch 2: %zu images (%zu masked), DSM %d x %d\n",
+                   e1.images.size(), e1.masks(), e1.dsm.width(), e1.dsm.height(), e2.images.size(), e2.masks(),
+                   e2.dsm.width(), e2.dsm.height());
 
     // 1. Rough co-registration from the DSMs (its defaults: SIFT on slope images).
     RoughCoregistrationOptions rough_options;
@@ -620,8 +627,10 @@ int main(int argc, char** argv) {
     }
 
     // 3. Precise matching per pair.
-    PreciseEpoch<Frame<FraserAffine>> p1{frames1, [&e1](std::size_t i) { return e1.load_image(i); }, &e1.dsm};
-    PreciseEpoch<Frame<FraserAffine>> p2{frames2, [&e2](std::size_t i) { return e2.load_image(i); }, &e2.dsm};
+    PreciseEpoch<Frame<FraserAffine>> p1{frames1, [&e1](std::size_t i) { return e1.load_image(i); }, &e1.dsm,
+                                         [&e1](std::size_t i) { return e1.load_mask(i); }};
+    PreciseEpoch<Frame<FraserAffine>> p2{frames2, [&e2](std::size_t i) { return e2.load_image(i); }, &e2.dsm,
+                                         [&e2](std::size_t i) { return e2.load_mask(i); }};
     SiftOptions sift_options;
     sift_options.root_sift = matcher_name == "rootsift";
     if (method == "correlation") {

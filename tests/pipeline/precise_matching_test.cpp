@@ -351,3 +351,102 @@ TEST_CASE("precise matching: no pair is an answer, bad input an error", "[pipeli
                                             RootSiftExtractor{}),
                     Catch::Contains("epoch 2 has no DSM"));
 }
+
+namespace {
+
+// Masks as a scan's frame and a cloud would make them: epoch 1 without its left third and a block
+// in its middle, epoch 2 without its bottom quarter (0 = ignore).
+Raster<std::uint8_t> test_mask(const Raster<std::uint8_t>& image, int epoch) {
+  const int w = image.width(), h = image.height();
+  Raster<std::uint8_t> mask(w, h, 255);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const bool off = epoch == 0 ? (x < w / 3 || (std::abs(x - 2 * w / 3) < 20 && std::abs(y - h / 2) < 20))
+                                  : y >= 3 * h / 4;
+      if (off) mask(x, y) = 0;
+    }
+  return mask;
+}
+
+PreciseEpoch<Frame<FraserAffine>> masked_view(const Fixture& f, int e) {
+  PreciseEpoch<Frame<FraserAffine>> view = epoch_view(f, e);
+  const SyntheticEpoch& epoch = f.scene.epochs[static_cast<std::size_t>(e)];
+  view.load_mask = [&epoch, e](std::size_t i) { return test_mask(epoch.images[i].pixels, e); };
+  return view;
+}
+
+// Masked pixels in the square of half side `half` around the pixel containing p (outside counts).
+int masked_in_box(const Raster<std::uint8_t>& mask, const Eigen::Vector2d& p, int half) {
+  const int cx = static_cast<int>(std::lround(p.x())), cy = static_cast<int>(std::lround(p.y()));
+  int n = 0;
+  for (int y = cy - half; y <= cy + half; ++y)
+    for (int x = cx - half; x <= cx + half; ++x) n += !mask.contains(x, y) || mask(x, y) == 0;
+  return n;
+}
+
+}  // namespace
+
+TEST_CASE("precise matching keeps masked pixels out of its matches", "[pipeline][precise]") {
+  const Fixture& f = fixture();
+  REQUIRE(f.pairs.size() >= 2);
+  PreciseMatchingOptions options;
+  options.threads = 2;
+  options.correlation.interest.cell_px = 10;
+  const int half = options.correlation.match.window_px / 2;
+  const auto on_masks = [&f](const PrecisePairReport& p, int master_half) {
+    const Raster<std::uint8_t> m1 = test_mask(f.scene.epochs[0].images[p.master].pixels, 0);
+    const Raster<std::uint8_t> m2 = test_mask(f.scene.epochs[1].images[p.secondary].pixels, 1);
+    std::size_t n = 0;
+    for (const PointMatch& m : p.tentative) n += masked_in_box(m1, m.a, master_half) > 0 || masked_in_box(m2, m.b, 0) > 0;
+    return n;
+  };
+
+  SECTION("correlation: whole windows on the master side, points and windows on the secondary") {
+    const PreciseMatchingReport plain = precise_matching_correlation(epoch_view(f, 0), epoch_view(f, 1),
+                                                                     f.scene.epoch2_from_epoch1(), f.pairs, options);
+    const PreciseMatchingReport masked = precise_matching_correlation(
+        masked_view(f, 0), masked_view(f, 1), f.scene.epoch2_from_epoch1(), f.pairs, options);
+    INFO(masked.message);
+    REQUIRE(masked.success);
+    std::size_t plain_on = 0, masked_on = 0, dropped = 0;
+    for (const PrecisePairReport& p : plain.pairs) plain_on += on_masks(p, half);
+    for (const PrecisePairReport& p : masked.pairs) {
+      INFO(p.message);
+      masked_on += on_masks(p, half);
+      dropped += p.masked;
+      // The final matches are a subset of the tentative ones.
+      CHECK(p.matches.size() <= p.tentative.size());
+    }
+    // Without masks many matches lie there, so the check below can fail.
+    CHECK(plain_on >= 20);
+    CHECK(masked_on == 0);
+    // The master side is kept out before correlating; what the secondary's mask drops is counted.
+    CHECK(dropped > 0);
+    const Judged j = judge(f, masked);
+    INFO(j.within3 << " of " << j.decidable << " decidable final matches within 3 px");
+    CHECK(j.matches >= 20);
+    CHECK(j.within3 >= 0.95 * static_cast<double>(j.decidable));
+  }
+
+  SECTION("patch: no keypoint on a masked pixel") {
+    const std::vector<ImagePairOverlap> first(f.pairs.begin(), f.pairs.begin() + 1);
+    const PreciseMatchingReport plain =
+        precise_matching_patch(epoch_view(f, 0), epoch_view(f, 1), f.scene.epoch2_from_epoch1(), first,
+                               ExtractorPairMatcher<SiftExtractor>(SiftExtractor{}), options);
+    const PreciseMatchingReport masked =
+        precise_matching_patch(masked_view(f, 0), masked_view(f, 1), f.scene.epoch2_from_epoch1(), first,
+                               ExtractorPairMatcher<SiftExtractor>(SiftExtractor{}), options);
+    REQUIRE(masked.success);
+    CHECK(on_masks(plain.pairs[0], 0) > 0);
+    CHECK(on_masks(masked.pairs[0], 0) == 0);
+    CHECK(masked.pairs[0].masked == on_masks(plain.pairs[0], 0));
+  }
+
+  SECTION("a mask of another size than its image is an error naming the image") {
+    PreciseEpoch<Frame<FraserAffine>> wrong = epoch_view(f, 1);
+    wrong.load_mask = [](std::size_t) { return Raster<std::uint8_t>(10, 10, 255); };
+    CHECK_THROWS_WITH(precise_matching_correlation(epoch_view(f, 0), wrong, f.scene.epoch2_from_epoch1(), f.pairs,
+                                                   options),
+                      Catch::Contains("the mask of image") && Catch::Contains("of epoch 2 is 10 x 10 px"));
+  }
+}

@@ -6,10 +6,12 @@
 # the point, not the number of matches. The grid is asked for as a bound of 1875 points per image,
 # which on 800 x 600 px is 16 px cells exactly; report.json must say that cell. The ground filter's
 # threshold is asked for too (--ground-gsd 4), and the epoch-1 images sharpened (--sharpen 1.5,0.8):
-# report.json must say both were used.
+# report.json must say both were used. Epoch 1's scans keep a film frame of 40 px (make_scene
+# --scan-frame: a dark band with fiducial marks and a data strip) and come with COLMAP masks of it:
+# no tie point may lie on the band or within the correlation window's half (10 px) of it.
 #   cmake -DMAKE_SCENE=... -DMATCH_EPOCHS=... -DWORK=... -P match_epochs_names.cmake
 include("${CMAKE_CURRENT_LIST_DIR}/scene_folders.cmake")
-fresh_scene("${WORK}" --image-size 800x600 --images-per-epoch 2x2 --seed 1)
+fresh_scene("${WORK}" --image-size 800x600 --images-per-epoch 2x2 --seed 1 --scan-frame 40)
 set(e2 "${WORK}/scene/e2")
 file(READ "${e2}/images.txt" images)
 file(MAKE_DIRECTORY "${e2}/images/scan")
@@ -68,6 +70,30 @@ if(NOT report MATCHES "\"ground_filter\": {\"on\": true, \"threshold_gsd\": 4, \
 endif()
 if(NOT report MATCHES "\"master_sharpen\": {\"amount\": 1.5, \"sigma_px\": 0.8}")
   message(FATAL_ERROR "report.json does not give the sharpening asked for")
+endif()
+if(NOT report MATCHES "\"masks\": {\"epoch1\": 4, \"epoch2\": 0}")
+  message(FATAL_ERROR "report.json does not count epoch 1's 4 masks")
+endif()
+# Pastis<e1 image>/<e2 image>.txt: x1 y1 x2 y2, x1 y1 in the epoch-1 image (MicMac's pixels, within
+# half a pixel of diachron's).
+set(points 0)
+foreach(f IN LISTS files)
+  if(NOT f MATCHES "^Pastise1_")
+    continue()
+  endif()
+  file(STRINGS "${WORK}/out/Homol/${f}" lines)
+  foreach(line IN LISTS lines)
+    string(REGEX MATCH "^([-0-9.e+]+) ([-0-9.e+]+) " xy "${line}")
+    set(x "${CMAKE_MATCH_1}")
+    set(y "${CMAKE_MATCH_2}")
+    if(x LESS 49 OR y LESS 49 OR x GREATER 750.5 OR y GREATER 550.5)
+      message(FATAL_ERROR "Homol/${f}: the tie point '${line}' is on epoch 1's masked frame")
+    endif()
+    math(EXPR points "${points} + 1")
+  endforeach()
+endforeach()
+if(points LESS 100)
+  message(FATAL_ERROR "only ${points} tie points in epoch 1's images")
 endif()
 folder_fingerprint("${WORK}/scene" after)
 if(NOT before STREQUAL after)

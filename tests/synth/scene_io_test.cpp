@@ -337,6 +337,26 @@ TEST_CASE("read_epoch_folder reads what write_scene wrote, and names what is mis
     const Raster<std::uint8_t> back = folder.load_image(0);
     CHECK(std::equal(back.begin(), back.end(), grey.begin()));
   }
+  {
+    // Masks, COLMAP's way: masks/<image name>.png for the images that have one, read as written;
+    // one of another size than its camera is an error naming it.
+    CHECK(read_epoch_folder(e1).masks() == 0);
+    CHECK(read_epoch_folder(e1).load_mask(0).empty());
+    const std::string name = scene.epochs[0].images[1].name + ".png";
+    make_folder(e1 + "/masks", "test");
+    const Raster<std::uint8_t> written = diachron::test::uniform_noise_image(
+        scene.epochs[0].camera.width(), scene.epochs[0].camera.height(), 11);
+    write_image_u8(written, e1 + "/masks/" + name + ".png");
+    const EpochFolder folder = read_epoch_folder(e1);
+    CHECK(folder.masks() == 1);
+    CHECK(folder.images[0].mask_path.empty());
+    CHECK(folder.images[1].mask_path == e1 + "/masks/" + name + ".png");
+    const Raster<std::uint8_t> mask = folder.load_mask(1);
+    CHECK(std::equal(mask.begin(), mask.end(), written.begin(), written.end()));
+    write_image_u8(Raster<std::uint8_t>(7, 5, 255), e1 + "/masks/" + name + ".png");
+    CHECK_THROWS_WITH(folder.load_mask(1), Catch::Contains("mask '" + e1 + "/masks/" + name + ".png' is 7 x 5 px"));
+    REQUIRE(std::remove((e1 + "/masks/" + name + ".png").c_str()) == 0);
+  }
 
   // The Helmert file of the programs reads back to the same doubles, and rejects what is not one.
   const Helmert3 h = scene.epoch2_from_epoch1();

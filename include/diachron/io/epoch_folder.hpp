@@ -4,7 +4,9 @@
 /// (cameras.txt, images.txt, points3D.txt), the images under images/ and the epoch's DSM as
 /// dsm.tif, in the model's frame. read_epoch_folder() checks the whole folder up front, so a
 /// missing image or an unknown camera stops the run before any work, with the file named. Images
-/// are read on demand (EpochFolder::load_image): archives hold hundreds of large scans.
+/// are read on demand (EpochFolder::load_image): archives hold hundreds of large scans. Masks are
+/// optional, COLMAP's way: `masks/<image name>.png`, 0 where a pixel must not be matched (the
+/// scan's frame, fiducial marks, clouds: matching/image_mask.hpp); an image without one is used whole.
 /// Needs GDAL (diachron::io).
 
 #include <cstddef>
@@ -34,6 +36,8 @@ struct EpochImage {
   std::uint32_t id = 0;
   std::string name;
   std::string path;
+  /// Its mask, `masks/<name>.png`, or empty when the folder has none for it.
+  std::string mask_path;
   Frame<FraserAffine> frame{Camera<FraserAffine>(1.0, 0.0, 0.0, 1, 1), Pose{}};
   /// Largest difference (px) between COLMAP's projection and the converted camera's over the
   /// image; 0 for models diachron holds exactly (every model it reads but FULL_OPENCV with K4-K6).
@@ -66,10 +70,33 @@ struct EpochFolder {
                              << camera.height());
     return image;
   }
+
+  /// Images with a mask.
+  std::size_t masks() const {
+    std::size_t n = 0;
+    for (const EpochImage& image : images) n += !image.mask_path.empty();
+    return n;
+  }
+
+  /// Reads image `i`'s mask as 8-bit grey (0 = ignore the pixel), or an empty raster when it has
+  /// none. Throws diachron::Error naming the file when it cannot be read or its size is not its
+  /// camera's.
+  Raster<std::uint8_t> load_mask(std::size_t i) const {
+    DIACHRON_CHECK(i < images.size(), "EpochFolder::load_mask: image " << i << " of " << images.size());
+    if (images[i].mask_path.empty()) return {};
+    Raster<std::uint8_t> mask = read_image_grey8(images[i].mask_path);
+    const Camera<FraserAffine>& camera = images[i].frame.camera();
+    DIACHRON_CHECK(mask.width() == camera.width() && mask.height() == camera.height(),
+                   "mask '" << images[i].mask_path << "' is " << mask.width() << " x " << mask.height()
+                            << " px but its image's camera in " << directory << "/cameras.txt is " << camera.width()
+                            << " x " << camera.height());
+    return mask;
+  }
 };
 
 /// Reads the epoch folder `directory`: `cameras.txt`, `images.txt`, `points3D.txt`, `dsm.tif`, and
-/// checks that every image of images.txt exists under `images/`. Throws diachron::Error naming the
+/// checks that every image of images.txt exists under `images/`; notes each image's mask
+/// `masks/<name>.png` where it exists (read on demand, EpochFolder::load_mask). Throws diachron::Error naming the
 /// file (and line) when the folder, a file or an image is missing, a file cannot be parsed, a
 /// camera model has no diachron counterpart, or the DSM has no valid cell.
 inline EpochFolder read_epoch_folder(const std::string& directory, const GeoTiffReadOptions& dsm_options = {}) {
@@ -90,6 +117,8 @@ inline EpochFolder read_epoch_folder(const std::string& directory, const GeoTiff
     DIACHRON_CHECK(::stat(image.path.c_str(), &info) == 0 && S_ISREG(info.st_mode),
                    "epoch folder '" << directory << "': image '" << colmap_image.name << "' (id " << id
                                     << " in images.txt) is missing from images/");
+    const std::string mask_path = directory + "/masks/" + colmap_image.name + ".png";
+    if (::stat(mask_path.c_str(), &info) == 0 && S_ISREG(info.st_mode)) image.mask_path = mask_path;
     const ColmapCamera& colmap_camera = out.model.cameras.at(colmap_image.camera_id);  // check()ed by the reader
     const ConversionResult<Camera<FraserAffine>> camera = camera_from_colmap(colmap_camera);
     image.frame = Frame<FraserAffine>(camera.model, colmap_image.pose);

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <cstdint>
 #include <type_traits>
 #include <vector>
 
@@ -54,12 +55,21 @@ struct InterestPoint {
 
 /// The strongest point of each grid cell (cells in row-major order, empty cells skipped), so the
 /// result is deterministic and spread over the image. Non-finite pixels make their windows weak
-/// (they are skipped). An image too small for one window gives an empty list.
-/// @throws diachron::Error for invalid options.
+/// (they are skipped). An image too small for one window gives an empty list. `allowed_centres`,
+/// when given, is a raster of the image's size where 0 forbids a point there (an ImageMask eroded
+/// by the window that will be correlated, matching/image_mask.hpp): each cell then gets its
+/// strongest allowed point, not none because its strongest pixel is masked.
+/// @throws diachron::Error for invalid options or an allowed_centres raster of another size.
 template <class T>
-std::vector<InterestPoint> grid_interest_points(const Raster<T>& image, const GridInterestOptions& options = {}) {
+std::vector<InterestPoint> grid_interest_points(const Raster<T>& image, const GridInterestOptions& options = {},
+                                                const Raster<std::uint8_t>* allowed_centres = nullptr) {
   static_assert(std::is_arithmetic_v<T>, "grid_interest_points: the pixel type must be arithmetic");
   options.check();
+  DIACHRON_CHECK(allowed_centres == nullptr ||
+                     (allowed_centres->width() == image.width() && allowed_centres->height() == image.height()),
+                 "grid_interest_points: allowed_centres is " << allowed_centres->width() << " x "
+                                                             << allowed_centres->height() << ", the image "
+                                                             << image.width() << " x " << image.height());
   const int w = image.width(), h = image.height();
   const int half = options.window_px / 2;
   const int margin = std::max(options.border_px, half + 1);
@@ -119,6 +129,7 @@ std::vector<InterestPoint> grid_interest_points(const Raster<T>& image, const Gr
       const int x_end = std::min(w - margin, (cx + 1) * options.cell_px);
       for (int y = y_begin; y < y_end; ++y) {
         for (int x = std::max(margin, cx * options.cell_px); x < x_end; ++x) {
+          if (allowed_centres && (*allowed_centres)(x, y) == 0) continue;
           const double a = box(sxx, x, y) / area, c = box(syy, x, y) / area, b = box(sxy, x, y) / area;
           const double lambda_min = 0.5 * (a + c) - std::sqrt(0.25 * (a - c) * (a - c) + b * b);
           if (lambda_min > best.strength) {

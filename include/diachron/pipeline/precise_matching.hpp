@@ -35,6 +35,7 @@
 #include <diachron/matching/features.hpp>
 #include <diachron/matching/grid_interest_points.hpp>
 #include <diachron/matching/guided_matcher.hpp>
+#include <diachron/matching/image_mask.hpp>
 #include <diachron/matching/point_match.hpp>
 #include <diachron/matching/unsharp_mask.hpp>
 #include <diachron/pipeline/overlapping_pairs.hpp>
@@ -216,7 +217,8 @@ struct PrecisePairReport {
   std::size_t secondary = 0;  ///< index of the secondary image (epoch 2)
   bool success = false;       ///< at least one final match
   std::string message;        ///< what happened, or why there is no match
-  PointMatches tentative;     ///< the tentative matches (master px, secondary px)
+  PointMatches tentative;     ///< the tentative matches (master px, secondary px), none on masked pixels
+  std::size_t masked = 0;     ///< tentative matches dropped because they touch a masked pixel (PreciseImage::mask)
   GroundFilterResult ground;  ///< the ground filter's verdict on `tentative` (empty when not used)
   PointMatches grounded;      ///< `tentative` kept by the ground filter (all of them when not used)
   NccResult ncc;              ///< the NCC verdict on `grounded` (empty when not used)
@@ -234,11 +236,14 @@ struct PreciseMatchingReport {
   double seconds_total = 0.0;
 };
 
-/// One oriented image as precise matching needs it: its frame in its epoch's frame and its pixels.
+/// One oriented image as precise matching needs it: its frame in its epoch's frame, its pixels,
+/// and optionally its mask (matching/image_mask.hpp; null or empty: every pixel usable). No match
+/// keeps a point on a masked pixel; correlation also keeps masked pixels out of its windows.
 template <class Frame>
 struct PreciseImage {
   const Frame* frame = nullptr;
   const Raster<std::uint8_t>* pixels = nullptr;
+  const ImageMask* mask = nullptr;
 };
 
 namespace detail {
@@ -302,6 +307,34 @@ inline PointMatches ncc_final_matches(const PointMatches& matches, const NccResu
   return out;
 }
 
+namespace detail {
+
+// Drops the matches whose support touches a masked pixel: the square of half side master_half_px
+// around the master point, of secondary_half_px around the secondary one (0: the point's pixel, as
+// COLMAP keeps features out of masks). Returns how many were dropped; keeps the order.
+inline std::size_t drop_masked(PointMatches& matches, const ImageMask* master, int master_half_px,
+                               const ImageMask* secondary, int secondary_half_px) {
+  const bool m = master && !master->empty(), s = secondary && !secondary->empty();
+  if (!m && !s) return 0;
+  const std::size_t before = matches.size();
+  matches.erase(std::remove_if(matches.begin(), matches.end(),
+                               [&](const PointMatch& pm) {
+                                 return (m && !master->box_usable(pm.a, master_half_px)) ||
+                                        (s && !secondary->box_usable(pm.b, secondary_half_px));
+                               }),
+                matches.end());
+  return before - matches.size();
+}
+
+template <class MasterFrame, class SecondaryFrame>
+void check_mask_sizes(const PreciseImage<MasterFrame>& master, const PreciseImage<SecondaryFrame>& secondary) {
+  if (master.mask) master.mask->check_size(master.pixels->width(), master.pixels->height(), "the master image");
+  if (secondary.mask)
+    secondary.mask->check_size(secondary.pixels->width(), secondary.pixels->height(), "the secondary image");
+}
+
+}  // namespace detail
+
 /// The two filters of precise matching on one pair's tentative matches: the ground filter, then
 /// the NCC validator on what it kept. Fills `report.ground`, `grounded`, `ncc`, `matches`, the
 /// filter timings, `success` and `message`; `report.tentative` must hold the tentative matches.
@@ -359,11 +392,13 @@ PrecisePairReport precise_match_pair_patch(const PreciseImage<MasterFrame>& mast
   options.check();
   DIACHRON_CHECK(master.frame && master.pixels && secondary.frame && secondary.pixels,
                  "precise_match_pair_patch: an image without frame or pixels");
+  detail::check_mask_sizes(master, secondary);
   PrecisePairReport report;
   const auto start = std::chrono::steady_clock::now();
   const auto transfer = make_dsm_transfer(*master.frame, master_dsm, *secondary.frame, epoch2_from_epoch1);
   OneToOneResult tiles = match_one_to_one(*master.pixels, *secondary.pixels, transfer, matcher, options.patch);
   report.tentative = std::move(tiles.matches);
+  report.masked = detail::drop_masked(report.tentative, master.mask, 0, secondary.mask, 0);
   report.seconds.tentative = detail::precise_seconds_since(start);
   filter_precise_pair(report, master, master_dsm, secondary, secondary_dsm, epoch2_from_epoch1, options);
   if (report.tentative.empty()) report.message = "no tentative match: " + tiles.message;
@@ -382,12 +417,14 @@ PrecisePairReport precise_match_pair_guided(const PreciseImage<MasterFrame>& mas
   options.check();
   DIACHRON_CHECK(master.frame && master.pixels && secondary.frame && secondary.pixels,
                  "precise_match_pair_guided: an image without frame or pixels");
+  detail::check_mask_sizes(master, secondary);
   PrecisePairReport report;
   const auto start = std::chrono::steady_clock::now();
   const auto forward = make_dsm_transfer(*master.frame, master_dsm, *secondary.frame, epoch2_from_epoch1);
   const auto inverse = make_dsm_transfer(*secondary.frame, secondary_dsm, *master.frame, epoch2_from_epoch1.inverse());
   GuidedMatchResult guided = guided_match(master_features, secondary_features, forward, inverse, options.guided);
   report.tentative = std::move(guided.matches);
+  report.masked = detail::drop_masked(report.tentative, master.mask, 0, secondary.mask, 0);
   report.seconds.tentative = detail::precise_seconds_since(start);
   filter_precise_pair(report, master, master_dsm, secondary, secondary_dsm, epoch2_from_epoch1, options);
   report.seconds.total = detail::precise_seconds_since(start);
@@ -430,8 +467,25 @@ PrecisePairReport precise_match_pair_correlation(const PreciseImage<MasterFrame>
   interest.cell_px = effective_cell_px(co, master.pixels->width(), master.pixels->height());
   // The window must fit whole around a point, so points keep the correlation window's margin.
   interest.border_px = std::max(interest.border_px, co.match.window_px / 2 + 2);
+  // A window that reaches a masked pixel (the scan's frame, a fiducial mark) would find its peak on
+  // it: points are taken only where the whole window is usable, and a match's secondary window,
+  // the master window's size times the GSD ratio, must be usable too.
+  const int half_window = co.match.window_px / 2;
+  const bool master_masked = master.mask && !master.mask->empty();
+  detail::check_mask_sizes(master, secondary);
+  const Raster<std::uint8_t> allowed = master_masked ? master.mask->eroded(half_window) : Raster<std::uint8_t>{};
   std::vector<Eigen::Vector2d> points;
-  for (const InterestPoint& p : grid_interest_points(master_pixels, interest)) points.push_back(p.position);
+  for (const InterestPoint& p : grid_interest_points(master_pixels, interest, master_masked ? &allowed : nullptr))
+    points.push_back(p.position);
+  int secondary_half = half_window;
+  if (secondary.mask && !secondary.mask->empty()) {
+    const double g1 = detail::image_gsd(*master.frame, master_dsm, master.pixels->width(), master.pixels->height());
+    const double g2 = detail::image_gsd(*secondary.frame, secondary_dsm, secondary.pixels->width(),
+                                        secondary.pixels->height());
+    const double ratio = g1 * epoch2_from_epoch1.scale / g2;  // secondary px per master px
+    if (std::isfinite(ratio) && ratio > 0.0)
+      secondary_half = static_cast<int>(std::ceil(std::min(ratio, 64.0) * half_window));
+  }
   const auto transfer = make_dsm_transfer(*master.frame, master_dsm, *secondary.frame, epoch2_from_epoch1);
   std::string relief_note;
   if (co.max_relief_gsd > 0.0) {
@@ -448,6 +502,7 @@ PrecisePairReport precise_match_pair_correlation(const PreciseImage<MasterFrame>
            std::to_string(r.no_prediction) + " without prediction";
   };
   std::string second_pass = "first pass: " + describe(first) + "; no second pass";
+  report.masked = detail::drop_masked(first.matches, nullptr, 0, secondary.mask, secondary_half);
   report.tentative = first.matches;
   if (co.second_pass_radius_px > 0 && report.tentative.size() >= filters.ground.min_pairs) {
     const double gsd = detail::image_gsd(*secondary.frame, secondary_dsm, secondary.pixels->width(),
@@ -465,6 +520,7 @@ PrecisePairReport precise_match_pair_correlation(const PreciseImage<MasterFrame>
         narrow.exclusion_px = std::min(narrow.exclusion_px, std::max(1, narrow.search_radius_px - 1));
         CorrelationMatchResult again = correlation_match(master_pixels, *secondary.pixels, points, transfer2, narrow);
         second_pass = "first pass: " + describe(first) + "; second pass: " + describe(again);
+        report.masked = detail::drop_masked(again.matches, nullptr, 0, secondary.mask, secondary_half);
         report.tentative = std::move(again.matches);
       } else {
         second_pass += " (ground filter: " + ground.message + ")";
@@ -475,6 +531,7 @@ PrecisePairReport precise_match_pair_correlation(const PreciseImage<MasterFrame>
   filter_precise_pair(report, master, master_dsm, secondary, secondary_dsm, epoch2_from_epoch1, filters);
   report.message += "; " + std::to_string(points.size()) + " interest points (" + std::to_string(interest.cell_px) +
                     " px cells)" + relief_note + ", " + second_pass;
+  if (report.masked > 0) report.message += "; " + std::to_string(report.masked) + " matches on masked pixels dropped";
   report.seconds.total = detail::precise_seconds_since(start);
   return report;
 }
@@ -482,11 +539,14 @@ PrecisePairReport precise_match_pair_correlation(const PreciseImage<MasterFrame>
 /// Two epochs as precise matching sees them: per image its frame (in the epoch's frame), a way to
 /// read its pixels (called from worker threads, once per pair the image is in: wrap a cache in it
 /// if reading is slow), and the epoch's DSM (same frame). The DSM must outlive the call.
+/// `load_mask`, optional, reads an image's mask the same way (matching/image_mask.hpp: 0 = ignore
+/// the pixel; an empty raster: no mask for that image; another size than the image's: an error).
 template <class Frame>
 struct PreciseEpoch {
   std::vector<Frame> frames;
   std::function<Raster<std::uint8_t>(std::size_t)> load_image;
   const Dsm* dsm = nullptr;
+  std::function<Raster<std::uint8_t>(std::size_t)> load_mask{};
 
   void check(const char* which) const {
     DIACHRON_CHECK(dsm != nullptr && !dsm->empty(), "precise matching: epoch " << which << " has no DSM");
@@ -514,9 +574,13 @@ PreciseMatchingReport run_precise_pairs(const PreciseEpoch<MasterFrame>& epoch1,
     const auto start = std::chrono::steady_clock::now();
     const Raster<std::uint8_t> a = epoch1.load_image(pairs[k].master);
     const Raster<std::uint8_t> b = epoch2.load_image(pairs[k].secondary);
+    const ImageMask mask_a(epoch1.load_mask ? epoch1.load_mask(pairs[k].master) : Raster<std::uint8_t>{});
+    const ImageMask mask_b(epoch2.load_mask ? epoch2.load_mask(pairs[k].secondary) : Raster<std::uint8_t>{});
+    mask_a.check_size(a.width(), a.height(), "image " + std::to_string(pairs[k].master) + " of epoch 1");
+    mask_b.check_size(b.width(), b.height(), "image " + std::to_string(pairs[k].secondary) + " of epoch 2");
     const double load = precise_seconds_since(start);
-    PreciseImage<MasterFrame> master{&epoch1.frames[pairs[k].master], &a};
-    PreciseImage<SecondaryFrame> secondary{&epoch2.frames[pairs[k].secondary], &b};
+    PreciseImage<MasterFrame> master{&epoch1.frames[pairs[k].master], &a, &mask_a};
+    PreciseImage<SecondaryFrame> secondary{&epoch2.frames[pairs[k].secondary], &b, &mask_b};
     PrecisePairReport r = run_pair(k, master, secondary);
     r.master = pairs[k].master;
     r.secondary = pairs[k].secondary;
