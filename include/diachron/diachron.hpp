@@ -77,10 +77,12 @@
 #include <diachron/matching/features.hpp>
 #include <diachron/matching/grid_interest_points.hpp>
 #include <diachron/matching/guided_matcher.hpp>
+#include <diachron/matching/image_mask.hpp>
 #include <diachron/matching/point_index_2d.hpp>
 #include <diachron/matching/point_match.hpp>
 #include <diachron/matching/rotation_hypotheses.hpp>
 #include <diachron/matching/scale_hypotheses.hpp>
+#include <diachron/matching/unsharp_mask.hpp>
 #include <diachron/adjustment/tracks.hpp>
 #include <diachron/eval/check_points.hpp>
 #include <diachron/eval/coregistration_case.hpp>
@@ -91,6 +93,7 @@
 #include <diachron/synth/epoch.hpp>
 #include <diachron/synth/noise.hpp>
 #include <diachron/synth/render.hpp>
+#include <diachron/synth/scan_frame.hpp>
 #include <diachron/synth/scene.hpp>
 #include <diachron/synth/terrain.hpp>
 #include <diachron/synth/texture.hpp>
