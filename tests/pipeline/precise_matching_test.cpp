@@ -442,6 +442,33 @@ TEST_CASE("precise matching keeps masked pixels out of its matches", "[pipeline]
     CHECK(masked.pairs[0].masked == on_masks(plain.pairs[0], 0));
   }
 
+  SECTION("guided: masked keypoints are left out before matching") {
+    const PreciseMatchingReport plain = precise_matching_guided(epoch_view(f, 0), epoch_view(f, 1),
+                                                                f.scene.epoch2_from_epoch1(), f.pairs,
+                                                                RootSiftExtractor{}, options);
+    const PreciseMatchingReport masked = precise_matching_guided(masked_view(f, 0), masked_view(f, 1),
+                                                                 f.scene.epoch2_from_epoch1(), f.pairs,
+                                                                 RootSiftExtractor{}, options);
+    REQUIRE(masked.success);
+    std::size_t plain_on = 0, masked_on = 0, dropped = 0;
+    for (const PrecisePairReport& p : plain.pairs) plain_on += on_masks(p, 0);
+    for (const PrecisePairReport& p : masked.pairs) {
+      masked_on += on_masks(p, 0);
+      dropped += p.masked;
+    }
+    CHECK(plain_on > 0);
+    CHECK(masked_on == 0);
+    // Nothing is left to drop after matching: the keypoints were filtered first.
+    CHECK(dropped == 0);
+    const Judged j = judge(f, masked);
+    CHECK(j.within3 >= 0.95 * static_cast<double>(j.decidable));
+    PreciseEpoch<Frame<FraserAffine>> wrong = epoch_view(f, 0);
+    wrong.load_mask = [](std::size_t) { return Raster<std::uint8_t>(3, 3, 255); };
+    CHECK_THROWS_WITH(precise_matching_guided(wrong, epoch_view(f, 1), f.scene.epoch2_from_epoch1(), f.pairs,
+                                              RootSiftExtractor{}, options),
+                      Catch::Contains("of epoch 1 is 3 x 3 px"));
+  }
+
   SECTION("a mask of another size than its image is an error naming the image") {
     PreciseEpoch<Frame<FraserAffine>> wrong = epoch_view(f, 1);
     wrong.load_mask = [](std::size_t) { return Raster<std::uint8_t>(10, 10, 255); };

@@ -326,6 +326,24 @@ inline std::size_t drop_masked(PointMatches& matches, const ImageMask* master, i
   return before - matches.size();
 }
 
+// The features whose keypoint lies on a usable pixel of `mask`, in their order: masked keypoints are
+// kept out before matching, so that they do not take part in the ratio and mutual tests.
+inline Features usable_features(const Features& features, const ImageMask& mask) {
+  if (mask.empty()) return features;
+  std::vector<Eigen::Index> rows;
+  for (std::size_t i = 0; i < features.keypoints.size(); ++i)
+    if (mask.usable(features.keypoints[i].position)) rows.push_back(static_cast<Eigen::Index>(i));
+  Features out;
+  for (const Eigen::Index r : rows) out.keypoints.push_back(features.keypoints[static_cast<std::size_t>(r)]);
+  // Descriptor-less features (no rows) stay so.
+  if (features.descriptors.rows() > 0) {
+    out.descriptors.resize(static_cast<Eigen::Index>(rows.size()), features.descriptors.cols());
+    for (std::size_t k = 0; k < rows.size(); ++k)
+      out.descriptors.row(static_cast<Eigen::Index>(k)) = features.descriptors.row(rows[k]);
+  }
+  return out;
+}
+
 template <class MasterFrame, class SecondaryFrame>
 void check_mask_sizes(const PreciseImage<MasterFrame>& master, const PreciseImage<SecondaryFrame>& secondary) {
   if (master.mask) master.mask->check_size(master.pixels->width(), master.pixels->height(), "the master image");
@@ -688,7 +706,11 @@ PreciseMatchingReport precise_matching_guided(const PreciseEpoch<MasterFrame>& e
     parallel_for(jobs.size(), options.threads, [&](std::size_t k) {
       const auto [epoch, i] = jobs[k];
       const Raster<std::uint8_t> image = epoch == 1 ? epoch1.load_image(i) : epoch2.load_image(i);
-      (epoch == 1 ? features1 : features2)[i] = extractor.extract(image);
+      const auto& load_mask = epoch == 1 ? epoch1.load_mask : epoch2.load_mask;
+      const ImageMask mask(load_mask ? load_mask(i) : Raster<std::uint8_t>{});
+      mask.check_size(image.width(), image.height(),
+                      "image " + std::to_string(i) + " of epoch " + std::to_string(epoch));
+      (epoch == 1 ? features1 : features2)[i] = detail::usable_features(extractor.extract(image), mask);
       progress.advance();
     });
   }
