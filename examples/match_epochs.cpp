@@ -416,7 +416,7 @@ void write_report(const std::string& path, const EpochFolder& e1, const EpochFol
   if (method == "correlation")
     out << "  \"master_sharpen\": {\"amount\": " << options.correlation.master_sharpen.amount
         << ", \"sigma_px\": " << options.correlation.master_sharpen.sigma_px << "},\n";
- out << "  \"masks\": {\"epoch1\": " << e1.masks() << ", \"epoch2\": " << e2.masks() << "},\n";
+  out << "  \"masks\": {\"epoch1\": " << e1.masks() << ", \"epoch2\": " << e2.masks() << "},\n";
   out << "  \"precise_matching\": {\"success\": " << (precise.success ? "true" : "false")
       << ", \"message\": " << quoted(precise.message) << ", \"tentative\": " << precise.tentative
       << ", \"after_ground_filter\": " << precise.grounded << ", \"final\": " << precise.final_matches
@@ -589,7 +589,8 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "image names with a folder or shared by both epochs: Homol/ uses e1_/e2_ names "
                            "(DIR/homol_names.txt)\n");
     if (!quiet)
-      std::fprintf(stderr, "epoch 1: %zu images (%zu masked), DSM %d x %d; epoch 2: %zu images (%zu masked), DSM %d x %d\n",
+      std::fprintf(stderr,
+                   "epoch 1: %zu images (%zu masked), DSM %d x %d; epoch 2: %zu images (%zu masked), DSM %d x %d\n",
                    e1.images.size(), e1.masks(), e1.dsm.width(), e1.dsm.height(), e2.images.size(), e2.masks(),
                    e2.dsm.width(), e2.dsm.height());
 

@@ -85,7 +85,8 @@ TEST_CASE("ImageMask: positions, empty masks and sizes", "[matching][mask]") {
   CHECK_NOTHROW(none.check_size(640, 480, "image a"));
 
   CHECK_NOTHROW(mask.check_size(10, 8, "image a"));
-  CHECK_THROWS_WITH(mask.check_size(8, 10, "image a"), Catch::Contains("the mask of image a is 10 x 8 px, the image 8 x 10"));
+  CHECK_THROWS_WITH(mask.check_size(8, 10, "image a"),
+                    Catch::Contains("the mask of image a is 10 x 8 px, the image 8 x 10"));
   CHECK_THROWS_WITH(mask.box_usable(Eigen::Vector2d(1, 1), -1), Catch::Contains("half_px must be >= 0"));
   CHECK_THROWS_WITH(mask.eroded(-2), Catch::Contains("half_px must be >= 0"));
 }

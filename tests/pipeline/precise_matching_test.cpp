@@ -397,7 +397,8 @@ TEST_CASE("precise matching keeps masked pixels out of its matches", "[pipeline]
     const Raster<std::uint8_t> m1 = test_mask(f.scene.epochs[0].images[p.master].pixels, 0);
     const Raster<std::uint8_t> m2 = test_mask(f.scene.epochs[1].images[p.secondary].pixels, 1);
     std::size_t n = 0;
-    for (const PointMatch& m : p.tentative) n += masked_in_box(m1, m.a, master_half) > 0 || masked_in_box(m2, m.b, 0) > 0;
+    for (const PointMatch& m : p.tentative)
+      n += masked_in_box(m1, m.a, master_half) > 0 || masked_in_box(m2, m.b, 0) > 0;
     return n;
   };
 

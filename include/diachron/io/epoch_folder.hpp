@@ -96,9 +96,9 @@ struct EpochFolder {
 
 /// Reads the epoch folder `directory`: `cameras.txt`, `images.txt`, `points3D.txt`, `dsm.tif`, and
 /// checks that every image of images.txt exists under `images/`; notes each image's mask
-/// `masks/<name>.png` where it exists (read on demand, EpochFolder::load_mask). Throws diachron::Error naming the
-/// file (and line) when the folder, a file or an image is missing, a file cannot be parsed, a
-/// camera model has no diachron counterpart, or the DSM has no valid cell.
+/// `masks/<name>.png` where it exists (read on demand, EpochFolder::load_mask). Throws
+/// diachron::Error naming the file (and line) when the folder, a file or an image is missing, a file
+/// cannot be parsed, a camera model has no diachron counterpart, or the DSM has no valid cell.
 inline EpochFolder read_epoch_folder(const std::string& directory, const GeoTiffReadOptions& dsm_options = {}) {
   struct stat info {};
   DIACHRON_CHECK(!directory.empty() && ::stat(directory.c_str(), &info) == 0 && S_ISDIR(info.st_mode),
