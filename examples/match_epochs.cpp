@@ -5,7 +5,8 @@
 //
 // Each epoch folder holds a COLMAP text model (cameras.txt, images.txt, points3D.txt), images/ and
 // dsm.tif in the model's frame (what make_scene writes), and optionally masks/<image name>.png (COLMAP's
-// masks: 0 where no match may be, e.g. the scan's frame and fiducial marks). Epoch 1 is the master
+// masks) or images/<stem>_Masq.tif (MicMac's): 0 where no match may be, e.g. the scan's frame and
+// fiducial marks. Epoch 1 is the master
 // (moved onto epoch 2).
 // Writes
 //   DIR/rough_helmert.json  the rough co-registration, X2 = scale R X1 + translation (helmert.json's keys)
@@ -70,7 +71,7 @@ using namespace diachron;
 const char* kUsage =
     "usage: match_epochs EPOCH1_DIR EPOCH2_DIR --out DIR [options]\n"
     "  each EPOCH_DIR: cameras.txt images.txt points3D.txt images/ dsm.tif, optionally masks/<image name>.png\n"
-    "  (0 where no match may be: the scan's frame, fiducial marks, clouds)\n"
+    "  or images/<stem>_Masq.tif (0 where no match may be: the scan's frame, fiducial marks, clouds)\n"
     "  --method correlation|patch|guided      tentative matches: interest points correlated around their\n"
     "                                         DSM + Helmert prediction (default), one-to-one transfer-\n"
     "                                         guided tiles, or keypoints guided by DSM + Helmert\n"

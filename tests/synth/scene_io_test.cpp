@@ -355,6 +355,19 @@ TEST_CASE("read_epoch_folder reads what write_scene wrote, and names what is mis
     CHECK(std::equal(mask.begin(), mask.end(), written.begin(), written.end()));
     write_image_u8(Raster<std::uint8_t>(7, 5, 255), e1 + "/masks/" + name + ".png");
     CHECK_THROWS_WITH(folder.load_mask(1), Catch::Contains("mask '" + e1 + "/masks/" + name + ".png' is 7 x 5 px"));
+    // MicMac's name, beside the image, where COLMAP's is missing; COLMAP's first where both are.
+    const std::string micmac = e1 + "/images/" + scene.epochs[0].images[0].name + "_Masq.tif";
+    write_image_u8(written, micmac);
+    const std::string micmac1 = e1 + "/images/" + scene.epochs[0].images[1].name + "_Masq.tif";
+    write_image_u8(written, micmac1);
+    const EpochFolder both = read_epoch_folder(e1);
+    CHECK(both.masks() == 2);
+    CHECK(both.images[0].mask_path == micmac);
+    CHECK(both.images[1].mask_path == e1 + "/masks/" + name + ".png");
+    const Raster<std::uint8_t> from_micmac = both.load_mask(0);
+    CHECK(std::equal(from_micmac.begin(), from_micmac.end(), written.begin(), written.end()));
+    REQUIRE(std::remove(micmac.c_str()) == 0);
+    REQUIRE(std::remove(micmac1.c_str()) == 0);
     REQUIRE(std::remove((e1 + "/masks/" + name + ".png").c_str()) == 0);
   }
 

@@ -5,8 +5,9 @@
 /// dsm.tif, in the model's frame. read_epoch_folder() checks the whole folder up front, so a
 /// missing image or an unknown camera stops the run before any work, with the file named. Images
 /// are read on demand (EpochFolder::load_image): archives hold hundreds of large scans. Masks are
-/// optional, COLMAP's way: `masks/<image name>.png`, 0 where a pixel must not be matched (the
-/// scan's frame, fiducial marks, clouds: matching/image_mask.hpp); an image without one is used whole.
+/// optional, 0 where a pixel must not be matched (the scan's frame, fiducial marks, clouds:
+/// matching/image_mask.hpp), COLMAP's way (`masks/<image name>.png`) or MicMac's (`<image name
+/// without its extension>_Masq.tif` beside the image); an image without one is used whole.
 /// Needs GDAL (diachron::io).
 
 #include <cstddef>
@@ -36,7 +37,8 @@ struct EpochImage {
   std::uint32_t id = 0;
   std::string name;
   std::string path;
-  /// Its mask, `masks/<name>.png`, or empty when the folder has none for it.
+  /// Its mask, `masks/<name>.png` (COLMAP) or else `images/<name stem>_Masq.tif` (MicMac), or empty
+  /// when the folder has neither.
   std::string mask_path;
   Frame<FraserAffine> frame{Camera<FraserAffine>(1.0, 0.0, 0.0, 1, 1), Pose{}};
   /// Largest difference (px) between COLMAP's projection and the converted camera's over the
@@ -95,8 +97,8 @@ struct EpochFolder {
 };
 
 /// Reads the epoch folder `directory`: `cameras.txt`, `images.txt`, `points3D.txt`, `dsm.tif`, and
-/// checks that every image of images.txt exists under `images/`; notes each image's mask
-/// `masks/<name>.png` where it exists (read on demand, EpochFolder::load_mask). Throws
+/// checks that every image of images.txt exists under `images/`; notes each image's mask where it
+/// exists (EpochImage::mask_path, read on demand by EpochFolder::load_mask). Throws
 /// diachron::Error naming the file (and line) when the folder, a file or an image is missing, a file
 /// cannot be parsed, a camera model has no diachron counterpart, or the DSM has no valid cell.
 inline EpochFolder read_epoch_folder(const std::string& directory, const GeoTiffReadOptions& dsm_options = {}) {
@@ -117,8 +119,14 @@ inline EpochFolder read_epoch_folder(const std::string& directory, const GeoTiff
     DIACHRON_CHECK(::stat(image.path.c_str(), &info) == 0 && S_ISREG(info.st_mode),
                    "epoch folder '" << directory << "': image '" << colmap_image.name << "' (id " << id
                                     << " in images.txt) is missing from images/");
-    const std::string mask_path = directory + "/masks/" + colmap_image.name + ".png";
-    if (::stat(mask_path.c_str(), &info) == 0 && S_ISREG(info.st_mode)) image.mask_path = mask_path;
+    const std::string colmap_mask = directory + "/masks/" + colmap_image.name + ".png";
+    const std::size_t dot = image.path.find_last_of('.');
+    const std::size_t slash = image.path.find_last_of('/');
+    const std::string micmac_mask =
+        (dot != std::string::npos && dot > slash ? image.path.substr(0, dot) : image.path) + "_Masq.tif";
+    for (const std::string& candidate : {colmap_mask, micmac_mask})
+      if (image.mask_path.empty() && ::stat(candidate.c_str(), &info) == 0 && S_ISREG(info.st_mode))
+        image.mask_path = candidate;
     const ColmapCamera& colmap_camera = out.model.cameras.at(colmap_image.camera_id);  // check()ed by the reader
     const ConversionResult<Camera<FraserAffine>> camera = camera_from_colmap(colmap_camera);
     image.frame = Frame<FraserAffine>(camera.model, colmap_image.pose);
