@@ -330,7 +330,7 @@ int main(int argc, char** argv) {
     std::map<std::string, MethodResult> results;
     std::FILE* dump = nullptr;
     if (!args.dump.empty() && !(dump = std::fopen(args.dump.c_str(), "w"))) throw Error("cannot write " + args.dump);
-    if (dump) std::fprintf(dump, "# method seed master secondary ax ay bx by score error_px status ex ey rx ry hxx hxy hyy a00 a01 a10 a11\n");
+    if (dump) std::fprintf(dump, "# method seed master secondary ax ay bx by score error_px status ex ey rx ry hxx hxy hyy a00 a01 a10 a11 relief1 relief2\n");
     std::vector<double> coreg_rms_cells;
     int coreg_failures = 0;
     std::size_t total_pairs = 0;
@@ -492,6 +492,11 @@ int main(int argc, char** argv) {
           for (const PrecisePairReport& r : report.pairs) {
             const auto transfer = make_dsm_transfer(frames1[r.master], e1.dsm, frames2[r.secondary], rough.epoch2_from_epoch1);
             const Raster<std::uint8_t> img1 = p1.load_image(r.master), img2 = p2.load_image(r.secondary);
+            // The ground's relief around the match in each epoch's DSM (plane-fit RMS over the disc
+            // the relief filter uses), each in GSD of its image.
+            const double g1 = detail::image_gsd(frames1[r.master], e1.dsm, img1.width(), img1.height());
+            const double g2 = detail::image_gsd(frames2[r.secondary], e2.dsm, img2.width(), img2.height());
+            const double radius_px = options.correlation.relief_radius_px;
             for (const PointMatch& pm : r.matches) {
               const MatchTruth t = truth.score({0, static_cast<int>(r.master)}, {1, static_cast<int>(r.secondary)}, pm.a, pm.b);
               const Eigen::Vector2d e = pm.b - t.true_pixel;
@@ -503,10 +508,16 @@ int main(int argc, char** argv) {
                 hxx = -shape->curvature(0, 0); hxy = -shape->curvature(0, 1); hyy = -shape->curvature(1, 1);
                 a00 = shape->affine(0, 0); a01 = shape->affine(0, 1); a10 = shape->affine(1, 0); a11 = shape->affine(1, 1);
               }
-              std::fprintf(dump, "%s %llu %zu %zu %.3f %.3f %.3f %.3f %.5f %.4f %d %.4f %.4f %.4f %.4f %.5f %.5f %.5f %.4f %.4f %.4f %.4f\n", m.c_str(),
+              double relief1 = std::nan(""), relief2 = std::nan("");
+              if (const auto x1 = transfer.master_point(pm.a))
+                if (const LocalRelief lr = local_relief(e1.dsm, x1->head<2>(), radius_px * g1); lr.valid) relief1 = lr.rms / g1;
+              if (const auto x2 = transfer.secondary_point(pm.a))
+                if (const LocalRelief lr = local_relief(e2.dsm, x2->head<2>(), radius_px * g2); lr.valid) relief2 = lr.rms / g2;
+              std::fprintf(dump, "%s %llu %zu %zu %.3f %.3f %.3f %.3f %.5f %.4f %d %.4f %.4f %.4f %.4f %.5f %.5f %.5f %.4f %.4f %.4f %.4f %.3f %.3f\n", m.c_str(),
                            static_cast<unsigned long long>(scene_options.seed), r.master, r.secondary, pm.a.x(), pm.a.y(),
                            pm.b.x(), pm.b.y(), pm.score, t.scored() ? t.error_px : std::nan(""),
-                           static_cast<int>(t.status), e.x(), e.y(), res.x(), res.y(), hxx, hxy, hyy, a00, a01, a10, a11);
+                           static_cast<int>(t.status), e.x(), e.y(), res.x(), res.y(), hxx, hxy, hyy, a00, a01, a10, a11,
+                           relief1, relief2);
             }
           }
         std::fprintf(stderr, "  %s: %.1f s, median %.0f final correct (< 3 px) per pair so far\n", m.c_str(),
