@@ -30,7 +30,9 @@
 // and its vector (epoch-2 px, NaN when the truth cannot decide), the truth's status, its residual
 // to the rough transfer's prediction, the correlation surface's second derivatives at the match
 // (hxx hxy hyy, per master px^2, from a quadratic fitted to the scores over +-2 master px) and the
-// transfer's local affine there (a00 a01 a10 a11, secondary px per master px).
+// transfer's local affine there (a00 a01 a10 a11, secondary px per master px), and the relief of each
+// epoch's DSM around the match (relief1 relief2: plane-fit RMS over the relief filter's disc, in GSD
+// of that epoch's image; NaN where the disc is mostly hole).
 //
 // Methods (comma-separated; default all but xfeat when the model is absent):
 //   baseline        whole-image SIFT (8000 strongest keypoints), ratio 0.8 + mutual, F-RANSAC 3 px
