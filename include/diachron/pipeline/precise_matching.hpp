@@ -351,6 +351,32 @@ void check_mask_sizes(const PreciseImage<MasterFrame>& master, const PreciseImag
     secondary.mask->check_size(secondary.pixels->width(), secondary.pixels->height(), "the secondary image");
 }
 
+// The half side, secondary px, of a window of half side master_half_px master px seen in the
+// secondary image: times the ratio of the images' GSDs (through the Helmert's scale); master_half_px
+// itself where a GSD cannot be measured. Computed only when the secondary has a mask.
+template <class MasterFrame, class SecondaryFrame>
+int secondary_half_px(const PreciseImage<MasterFrame>& master, const Dsm& master_dsm,
+                      const PreciseImage<SecondaryFrame>& secondary, const Dsm& secondary_dsm,
+                      const Helmert3& epoch2_from_epoch1, int master_half_px) {
+  if (master_half_px == 0 || !secondary.mask || secondary.mask->empty()) return master_half_px;
+  const double g1 = image_gsd(*master.frame, master_dsm, master.pixels->width(), master.pixels->height());
+  const double g2 = image_gsd(*secondary.frame, secondary_dsm, secondary.pixels->width(), secondary.pixels->height());
+  const double ratio = g1 * epoch2_from_epoch1.scale / g2;  // secondary px per master px
+  if (!std::isfinite(ratio) || ratio <= 0.0) return master_half_px;
+  return static_cast<int>(std::ceil(std::min(ratio, 64.0) * master_half_px));
+}
+
+// Masked matches out of the tentative ones of a descriptor method (patch, guided): the points'
+// pixels, and the NCC validator's windows when it runs, so that it never correlates a mask.
+template <class MasterFrame, class SecondaryFrame>
+std::size_t drop_masked_tentative(PointMatches& matches, const PreciseImage<MasterFrame>& master, const Dsm& master_dsm,
+                                  const PreciseImage<SecondaryFrame>& secondary, const Dsm& secondary_dsm,
+                                  const Helmert3& epoch2_from_epoch1, const PreciseMatchingOptions& options) {
+  const int half = options.use_ncc ? options.ncc.window_px / 2 : 0;
+  return drop_masked(matches, master.mask, half, secondary.mask,
+                     secondary_half_px(master, master_dsm, secondary, secondary_dsm, epoch2_from_epoch1, half));
+}
+
 }  // namespace detail
 
 /// The two filters of precise matching on one pair's tentative matches: the ground filter, then
@@ -416,7 +442,8 @@ PrecisePairReport precise_match_pair_patch(const PreciseImage<MasterFrame>& mast
   const auto transfer = make_dsm_transfer(*master.frame, master_dsm, *secondary.frame, epoch2_from_epoch1);
   OneToOneResult tiles = match_one_to_one(*master.pixels, *secondary.pixels, transfer, matcher, options.patch);
   report.tentative = std::move(tiles.matches);
-  report.masked = detail::drop_masked(report.tentative, master.mask, 0, secondary.mask, 0);
+  report.masked = detail::drop_masked_tentative(report.tentative, master, master_dsm, secondary, secondary_dsm,
+                                                epoch2_from_epoch1, options);
   report.seconds.tentative = detail::precise_seconds_since(start);
   filter_precise_pair(report, master, master_dsm, secondary, secondary_dsm, epoch2_from_epoch1, options);
   if (report.tentative.empty()) report.message = "no tentative match: " + tiles.message;
@@ -442,7 +469,8 @@ PrecisePairReport precise_match_pair_guided(const PreciseImage<MasterFrame>& mas
   const auto inverse = make_dsm_transfer(*secondary.frame, secondary_dsm, *master.frame, epoch2_from_epoch1.inverse());
   GuidedMatchResult guided = guided_match(master_features, secondary_features, forward, inverse, options.guided);
   report.tentative = std::move(guided.matches);
-  report.masked = detail::drop_masked(report.tentative, master.mask, 0, secondary.mask, 0);
+  report.masked = detail::drop_masked_tentative(report.tentative, master, master_dsm, secondary, secondary_dsm,
+                                                epoch2_from_epoch1, options);
   report.seconds.tentative = detail::precise_seconds_since(start);
   filter_precise_pair(report, master, master_dsm, secondary, secondary_dsm, epoch2_from_epoch1, options);
   report.seconds.total = detail::precise_seconds_since(start);
@@ -495,15 +523,8 @@ PrecisePairReport precise_match_pair_correlation(const PreciseImage<MasterFrame>
   std::vector<Eigen::Vector2d> points;
   for (const InterestPoint& p : grid_interest_points(master_pixels, interest, master_masked ? &allowed : nullptr))
     points.push_back(p.position);
-  int secondary_half = half_window;
-  if (secondary.mask && !secondary.mask->empty()) {
-    const double g1 = detail::image_gsd(*master.frame, master_dsm, master.pixels->width(), master.pixels->height());
-    const double g2 = detail::image_gsd(*secondary.frame, secondary_dsm, secondary.pixels->width(),
-                                        secondary.pixels->height());
-    const double ratio = g1 * epoch2_from_epoch1.scale / g2;  // secondary px per master px
-    if (std::isfinite(ratio) && ratio > 0.0)
-      secondary_half = static_cast<int>(std::ceil(std::min(ratio, 64.0) * half_window));
-  }
+  const int secondary_half =
+      detail::secondary_half_px(master, master_dsm, secondary, secondary_dsm, epoch2_from_epoch1, half_window);
   const auto transfer = make_dsm_transfer(*master.frame, master_dsm, *secondary.frame, epoch2_from_epoch1);
   std::string relief_note;
   if (co.max_relief_gsd > 0.0) {
