@@ -64,13 +64,7 @@ struct EpochFolder {
   /// Throws diachron::Error naming the file when it cannot be read or its size is not its camera's.
   Raster<std::uint8_t> load_image(std::size_t i) const {
     DIACHRON_CHECK(i < images.size(), "EpochFolder::load_image: image " << i << " of " << images.size());
-    Raster<std::uint8_t> image = read_image_grey8(images[i].path);
-    const Camera<FraserAffine>& camera = images[i].frame.camera();
-    DIACHRON_CHECK(image.width() == camera.width() && image.height() == camera.height(),
-                   "image '" << images[i].path << "' is " << image.width() << " x " << image.height()
-                             << " px but its camera in " << directory << "/cameras.txt is " << camera.width() << " x "
-                             << camera.height());
-    return image;
+    return read_camera_sized(images[i].path, i, "image", "its camera");
   }
 
   /// Images with a mask.
@@ -86,13 +80,21 @@ struct EpochFolder {
   Raster<std::uint8_t> load_mask(std::size_t i) const {
     DIACHRON_CHECK(i < images.size(), "EpochFolder::load_mask: image " << i << " of " << images.size());
     if (images[i].mask_path.empty()) return {};
-    Raster<std::uint8_t> mask = read_image_grey8(images[i].mask_path);
+    return read_camera_sized(images[i].mask_path, i, "mask", "its image's camera");
+  }
+
+ private:
+  // Reads `path` (an image or a mask, `what`) as 8-bit grey and checks that it is image i's camera's
+  // size; `whose` names that camera in the message.
+  Raster<std::uint8_t> read_camera_sized(const std::string& path, std::size_t i, const char* what,
+                                         const char* whose) const {
+    Raster<std::uint8_t> raster = read_image_grey8(path);
     const Camera<FraserAffine>& camera = images[i].frame.camera();
-    DIACHRON_CHECK(mask.width() == camera.width() && mask.height() == camera.height(),
-                   "mask '" << images[i].mask_path << "' is " << mask.width() << " x " << mask.height()
-                            << " px but its image's camera in " << directory << "/cameras.txt is " << camera.width()
-                            << " x " << camera.height());
-    return mask;
+    DIACHRON_CHECK(raster.width() == camera.width() && raster.height() == camera.height(),
+                   what << " '" << path << "' is " << raster.width() << " x " << raster.height() << " px but "
+                        << whose << " in " << directory << "/cameras.txt is " << camera.width() << " x "
+                        << camera.height());
+    return raster;
   }
 };
 
