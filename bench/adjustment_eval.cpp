@@ -20,6 +20,11 @@
 //   cauchy per camera   both of the two above
 //   shuffled errors   the truth's matches at the same master points, each given the error vector of
 //                another real match (a seeded shuffle): the matches' error without its structure
+//   pair bias removed   the real matches, each pair's mean true error (over its matches within 3
+//                px) taken off all its matches: an oracle of a free offset per pair
+//   relief bias removed the same taken apart for the matches on relief (epoch 2's DSM not a plane
+//                to 2 GSD around the match) and the others: an oracle of a free offset per pair for
+//                the matches on relief, which the other matches would anchor
 //   K3 held      epoch 1's K3 held at the SfM's value (EpochFreedom::fixed_intrinsics); the scenes'
 //                SfM has K3 = 0, as the truth, so this holds the true value
 //   K3 P1 P2 held   the same with P1, P2 held too, at the SfM's values: half the truth's
@@ -106,6 +111,7 @@
 #include <diachron/pipeline/precise_matching.hpp>
 #include <diachron/pipeline/rough_coregistration.hpp>
 #include <diachron/synth/scene.hpp>
+#include <diachron/terrain/local_relief.hpp>
 #include <diachron/vision/extractor_pair_matcher.hpp>
 #include <diachron/vision/sift.hpp>
 
@@ -153,7 +159,8 @@ struct Outcome {
 const char* const kVariants[] = {"rough",          "intra only",   "no affine",         "full",
                                  "e2 camera free", "both free",    "oracle e2 frames", "oracle matches",
                                  "inter sigma 1",  "inter sigma X", "affine per camera", "staged", "cauchy", "cauchy per camera", "shuffled errors",
-                                 "peak weighted", "peak weighted X", "K3 held", "K3 P1 P2 held", "colmap"};
+                                 "peak weighted", "peak weighted X", "K3 held", "K3 P1 P2 held",
+                                 "pair bias removed", "relief bias removed", "colmap"};
 
 // Check points of epoch 1 triangulated with `frames` (epoch-2 frame), errors in world metres.
 CheckPointReport check_points(const Scene& scene, const Frames& frames) {
@@ -554,6 +561,46 @@ int run(int argc, char** argv) {
         shuffled_matches.push_back(std::move(t));
       }
     }
+    // Oracles of a bias per pair: each pair's mean true error (over its matches within 3 px) taken
+    // off all its matches ("pair bias removed"), or apart for the matches on relief (epoch 2's DSM
+    // not a plane to kReliefGsd around the match) and the others ("relief bias removed"). What a
+    // free offset per pair, or per pair and kind of ground, could win at best.
+    constexpr double kReliefGsd = 2.0;
+    std::vector<EpochPairMatches> pair_debiased, relief_debiased;
+    for (const EpochPairMatches& pair : matches) {
+      const auto transfer = make_dsm_transfer(frames1[pair.master], e1.dsm, frames2[pair.secondary], helmert);
+      const Raster<std::uint8_t>& img2 = e2.images[pair.secondary].pixels;
+      const double g2 = detail::image_gsd(frames2[pair.secondary], e2.dsm, img2.width(), img2.height());
+      const double radius = precise_options.correlation.relief_radius_px * g2;
+      std::vector<int> kind(pair.matches.size(), 0);  // 1: on relief
+      Vec2 sum_all = Vec2::Zero(), sum_kind[2] = {Vec2::Zero(), Vec2::Zero()};
+      int n_all = 0, n_kind[2] = {0, 0};
+      for (std::size_t k = 0; k < pair.matches.size(); ++k) {
+        const PointMatch& m = pair.matches[k];
+        if (const auto x2 = transfer.secondary_point(m.a))
+          if (const LocalRelief lr = local_relief(e2.dsm, x2->head<2>(), radius); lr.valid && lr.rms / g2 >= kReliefGsd) kind[k] = 1;
+        const MatchTruth t = truth.score({0, static_cast<int>(pair.master)}, {1, static_cast<int>(pair.secondary)}, m.a, m.b);
+        if (!t.scored() || t.error_px >= 3.0) continue;
+        sum_all += m.b - t.true_pixel;
+        ++n_all;
+        sum_kind[kind[k]] += m.b - t.true_pixel;
+        ++n_kind[kind[k]];
+      }
+      EpochPairMatches by_pair{pair.master, pair.secondary, {}}, by_kind{pair.master, pair.secondary, {}};
+      for (std::size_t k = 0; k < pair.matches.size(); ++k) {
+        PointMatch a = pair.matches[k], b = pair.matches[k];
+        if (n_all > 0) a.b -= sum_all / n_all;
+        if (n_kind[kind[k]] > 0) b.b -= sum_kind[kind[k]] / n_kind[kind[k]];
+        by_pair.matches.push_back(a);
+        by_kind.matches.push_back(b);
+      }
+      const auto mean = [](const Vec2& sum, int n) { return n > 0 ? Vec2(sum / n) : Vec2(Vec2::Zero()); };
+      const Vec2 r = mean(sum_kind[1], n_kind[1]), f = mean(sum_kind[0], n_kind[0]);
+      std::fprintf(stderr, "    pair %zu-%zu: mean error of the correct matches on relief (%d) (%.2f, %.2f), elsewhere (%d) (%.2f, %.2f) px\n",
+                   pair.master, pair.secondary, n_kind[1], r.x(), r.y(), n_kind[0], f.x(), f.y());
+      pair_debiased.push_back(std::move(by_pair));
+      relief_debiased.push_back(std::move(by_kind));
+    }
     const std::vector<EpochPairMatches> weighted_matches =
         peak_weighted(matches, scene, frames1, frames2, helmert, precise_options.correlation.match);
     std::vector<Track> full_tracks;  // the tracks of the shipped adjustment, for COLMAP's run
@@ -586,6 +633,8 @@ int run(int argc, char** argv) {
           combined_adjustment(c1, reference,
                               v == "oracle matches"    ? true_matches
                               : v == "shuffled errors" ? shuffled_matches
+                              : v == "pair bias removed" ? pair_debiased
+                              : v == "relief bias removed" ? relief_debiased
                               : v.rfind("peak weighted", 0) == 0 ? weighted_matches
                                                        : matches,
                               helmert, options);
