@@ -42,7 +42,7 @@
 // or default/MATCHER/default/default: RoughCoregistrationOptions{} as shipped, and
 // noscale/MATCHER/default/default: the same without scale hypotheses (small images are still
 // enlarged; up0 turns that off), nofallback/MATCHER/default/default: the same without the dense
-// correlation fallback, upN[mK][xF] and corr...: see parse_config.
+// correlation fallback, upN[mK][xF], minscoreS and corr...: see parse_config.
 // The paper's plain SIFT baseline is stretch2/sift/whole/norot. Prints a Markdown table.
 
 #include <algorithm>
@@ -167,6 +167,11 @@ Config parse_config(const std::string& text) {
     o.correlation_fallback = true;
     if (image != "corr") o.correlation_search.signal = CorrelationSignal::gradient;
     if (image.size() > gradient.size()) o.correlation_search.coarse_size_px = std::stod(image.substr(gradient.size()));
+    return c;
+  }
+  // minscoreS: the default with the fallback's DsmCorrelationSearchOptions::min_score at S (0.5).
+  if (image.rfind("minscore", 0) == 0 && image.size() > 8) {
+    o.correlation_search.min_score = std::stod(image.substr(8));
     return c;
   }
   if (image == "noscale") {
