@@ -5,7 +5,7 @@
 ///
 ///   make_scene OUT_DIR [--preset plain|decades] [--seed N] [--dem PATH] [--images-per-epoch RxC]
 ///              [--image-size WxH] [--epochs N] [--check-points N] [--dome M] [--offset X,Y]
-///              [--scan-frame PX] [--threads N]
+///              [--scan-frame PX] [--control-points N] [--threads N]
 ///
 /// `--preset decades` starts from SceneOptions::decades_apart() and the other flags apply on top of
 /// it, so that `make_scene OUT --preset decades --seed N` writes exactly the scene generate_scene()
@@ -52,6 +52,10 @@ constexpr const char* kUsage =
     "  --scan-frame PX          draw a scan's film frame (a dark band of PX px with fiducial marks and a\n"
     "                           data strip) over the images of every epoch but the last, and write their\n"
     "                           masks as OUT/<epoch>/masks/<image>.png (0 on the frame; default 0: none)\n"
+    "  --control-points N       also write OUT/control_points.txt (io/control_points.hpp): the first N check\n"
+    "                           points seen in 2 or more images of the first epoch, positions in the last\n"
+    "                           epoch's frame (sigma 0.1 m), their true pixels; for match_epochs --gcps.\n"
+    "                           They stay among score_epochs' check points (default 0: none)\n"
     "  --threads N              worker threads, 0 = all cores (default 0)\n";
 
 // Flags that are not given leave the preset's value alone.
@@ -65,6 +69,7 @@ struct Arguments {
   std::optional<double> dome, flying_height;
   std::optional<std::pair<double, double>> offset;
   int scan_frame_px = 0;
+  int control_points = 0;
   std::size_t threads = 0;
 };
 
@@ -143,6 +148,9 @@ Arguments parse(int argc, char** argv) {
       } else if (arg == "--scan-frame") {
         a.scan_frame_px = parse_number<int>(value, arg);
         if (a.scan_frame_px < 0) usage_error("--scan-frame must be >= 0");
+      } else if (arg == "--control-points") {
+        a.control_points = parse_number<int>(value, arg);
+        if (a.control_points < 0) usage_error("--control-points must be >= 0");
       } else if (arg == "--threads") {
         a.threads = static_cast<std::size_t>(parse_number<std::uint64_t>(value, arg));
       } else {
@@ -204,6 +212,36 @@ diachron::SceneOptions scene_options(const Arguments& args) {
   return options;
 }
 
+// Writes the first `count` check points seen in 2 or more images of the first epoch as a
+// control-point file: positions in the last epoch's frame (its units; sigma 0.1 m), the true
+// pixels in the first epoch's images (named as write_scene names them: <name>.png). Returns how many it wrote.
+int write_control_points(const diachron::Scene& scene, int count, const std::string& path) {
+  const diachron::SyntheticEpoch& first = scene.epochs.front();
+  const diachron::Helmert3 reference_from_world = scene.epochs.back().epoch_from_world();
+  std::FILE* out = std::fopen(path.c_str(), "w");
+  if (!out) throw diachron::Error("make_scene: cannot write " + path);
+  std::fprintf(out, "# make_scene: check points of the scene as control points of %s against %s (positions in %s's\n"
+                    "# frame, its units; true pixels, diachron convention). io/control_points.hpp\n",
+               first.name.c_str(), scene.epochs.back().name.c_str(), scene.epochs.back().name.c_str());
+  int written = 0;
+  for (std::size_t k = 0; k < scene.check_points.size() && written < count; ++k) {
+    const diachron::CheckPoint& cp = scene.check_points[k];
+    std::vector<const diachron::CheckPoint::Observation*> seen;
+    for (const auto& o : cp.observations)
+      if (o.epoch == 0) seen.push_back(&o);
+    if (seen.size() < 2) continue;
+    const diachron::Vec3 p = reference_from_world(cp.world);
+    std::fprintf(out, "point cp%zu %.6f %.6f %.6f %.6f\n", k, p.x(), p.y(), p.z(), 0.1 * reference_from_world.scale);
+    for (const auto* o : seen)
+      std::fprintf(out, "obs cp%zu %s.png %.4f %.4f\n", k, first.images[static_cast<std::size_t>(o->image)].name.c_str(),
+                   o->pixel.x(), o->pixel.y());
+    ++written;
+  }
+  const bool ok = std::fclose(out) == 0;
+  if (!ok) throw diachron::Error("make_scene: cannot write " + path);
+  return written;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -247,6 +285,10 @@ int main(int argc, char** argv) {
       diachron::write_image_u8(mask, path);
     }
 
+    if (args.control_points > 0) {
+      const int written = write_control_points(scene, args.control_points, args.out_dir + "/control_points.txt");
+      std::printf("%d control points written to %s/control_points.txt\n", written, args.out_dir.c_str());
+    }
     std::printf("scene written to %s (preset %s, seed %llu, generated in %.2f s, %.2f s of CPU)\n",
                 args.out_dir.c_str(), args.preset.c_str(), static_cast<unsigned long long>(scene.seed), seconds,
                 cpu_seconds);

@@ -41,6 +41,7 @@
 #include <vector>
 
 #include <diachron/core/progress.hpp>
+#include <diachron/io/control_points.hpp>
 #include <diachron/io/epoch_folder.hpp>
 #include <diachron/io/folders.hpp>
 #include <diachron/io/geotiff.hpp>
@@ -121,6 +122,10 @@ const char* kUsage =
     "                                         first image's values), e.g. one film camera whose SfM\n"
     "                                         gave each scan its own; without it images share a\n"
     "                                         camera when cameras.txt gives them the same values\n"
+    "  --gcps FILE                            with --adjust: ground control points, lines 'point NAME\n"
+    "                                         X Y Z SIGMA' (epoch 2's frame) and 'obs NAME IMAGE X Y'\n"
+    "                                         (IMAGE of either images.txt, diachron pixels; io/\n"
+    "                                         control_points.hpp); report.json gives their errors\n"
     "  --threads N                            worker threads, 0 = all cores (default 0)\n"
     "  --quiet                                no progress on stderr\n";
 
@@ -293,10 +298,38 @@ std::string json_number_or_null(double v) {
   return o.str();
 }
 
+// The control points of a control-point file with their image names resolved in the two epochs:
+// each name must be an image of exactly one of them.
+std::vector<CombinedControlPoint> combined_control_points(const std::vector<ControlPointRecord>& records,
+                                                          const EpochFolder& e1, const EpochFolder& e2) {
+  std::map<std::string, std::pair<int, int>> where;  // name -> (epoch 1 or 2, index)
+  for (int epoch : {1, 2}) {
+    const EpochFolder& e = epoch == 1 ? e1 : e2;
+    for (std::size_t i = 0; i < e.images.size(); ++i) {
+      const auto [it, inserted] = where.emplace(e.images[i].name, std::make_pair(epoch, static_cast<int>(i)));
+      if (!inserted && it->second.first != epoch) it->second.first = 0;  // in both epochs
+    }
+  }
+  std::vector<CombinedControlPoint> out;
+  for (const ControlPointRecord& r : records) {
+    CombinedControlPoint g{r.position, r.sigma, {}, {}};
+    for (const auto& [image, pixel] : r.observations) {
+      const auto it = where.find(image);
+      DIACHRON_CHECK(it != where.end(), "control point " << r.name << ": no image '" << image << "' in either epoch");
+      DIACHRON_CHECK(it->second.first != 0, "control point " << r.name << ": image '" << image
+                                                             << "' is in both epochs; rename one of them");
+      (it->second.first == 1 ? g.epoch1 : g.epoch2).push_back({it->second.second, pixel});
+    }
+    out.push_back(std::move(g));
+  }
+  return out;
+}
+
 // The "adjustment" section of report.json.
 // `names`: the images' names, epoch 1's then epoch 2's (CombinedAdjustmentResult::image_camera's order).
 std::string adjustment_json(const CombinedAdjustmentResult& a, const std::vector<std::string>& names,
-                            const AdjustedExportReport* exported, AffineScope affine_scope) {
+                            const AdjustedExportReport* exported, AffineScope affine_scope,
+                            const std::vector<ControlPointRecord>& control) {
   const BundleReport& r = a.report;
   std::ostringstream o;
   o << "  \"adjustment\": {\"success\": " << (r.success ? "true" : "false") << ", \"message\": " << quoted(r.message)
@@ -349,6 +382,20 @@ std::string adjustment_json(const CombinedAdjustmentResult& a, const std::vector
     o << (k ? ", " : "") << "{\"stage\": " << quoted(r.solves[k].stage) << ", \"termination\": "
       << quoted(r.solves[k].termination) << ", \"iterations\": " << r.solves[k].iterations
       << ", \"seconds\": " << r.solves[k].seconds << "}";
+  // The control points: used or not, and their adjusted point minus their given position.
+  o << "],\n    \"control_points\": [";
+  for (std::size_t k = 0; k < control.size() && k < a.control_points.size(); ++k) {
+    const ControlPointOutcome& g = a.control_points[k];
+    o << (k ? ",\n      " : "\n      ") << "{\"name\": " << quoted(control[k].name)
+      << ", \"observations\": " << control[k].observations.size() << ", \"used\": " << (g.used ? "true" : "false")
+      << ", \"error\": ";
+    if (g.used)
+      o << "[" << json_number_or_null(g.error.x()) << ", " << json_number_or_null(g.error.y()) << ", "
+        << json_number_or_null(g.error.z()) << "]";
+    else
+      o << "null";
+    o << "}";
+  }
   o << "],\n    \"max_conversion_error_px\": "
     << (exported ? json_number_or_null(exported->max_conversion_error_px) : std::string("null"))
     << ", \"seconds\": " << r.seconds << "},\n";
@@ -449,6 +496,7 @@ int main(int argc, char** argv) {
   OverlappingPairsOptions overlap_options;
   bool quiet = false, pictures = true, adjust = false, fallback = true, one_camera = false;
   std::string hold;  // --hold: epoch 1's intrinsics held, comma-separated names
+  std::string gcps;  // --gcps: the control-point file
   double min_overlap = 0.1;
   std::optional<int> cell;  // unset: the default cell
   std::optional<long long> max_points;  // unset: PreciseCorrelationOptions' bound
@@ -497,6 +545,7 @@ int main(int argc, char** argv) {
       else if (a == "--affine") affine = value();
       else if (a == "--one-camera") one_camera = true;
       else if (a == "--hold") hold = value();
+      else if (a == "--gcps") gcps = value();
       else if (a == "--quiet") quiet = true;
       else if (a == "--help" || a == "-h") {
         std::cout << kUsage;
@@ -515,6 +564,9 @@ int main(int argc, char** argv) {
     DIACHRON_CHECK(adjust || affine.empty(), "--affine needs --adjust");
     DIACHRON_CHECK(adjust || !one_camera, "--one-camera needs --adjust");
     DIACHRON_CHECK(adjust || hold.empty(), "--hold needs --adjust");
+    DIACHRON_CHECK(adjust || gcps.empty(), "--gcps needs --adjust");
+    // Read before any work: a malformed file fails fast. Its image names are checked below.
+    const std::vector<ControlPointRecord> control = gcps.empty() ? std::vector<ControlPointRecord>{} : read_control_points(gcps);
 #if DIACHRON_MATCH_EPOCHS_ADJUST
     const std::vector<Intrinsic> held = parse_intrinsics(hold);  // before any work: a typo fails fast
 #endif
@@ -584,6 +636,9 @@ int main(int argc, char** argv) {
       if (const std::optional<double> v = suspected_untagged_nodata(e->dsm); v && !dsm_read.assume_untagged_nodata)
         std::fprintf(stderr, "warning: '%s/dsm.tif' has heights of %g far below all others and no nodata tag for "
                              "them: if they are holes, pass --nodata %g\n", e->directory.c_str(), *v, *v);
+#if DIACHRON_MATCH_EPOCHS_ADJUST
+    const std::vector<CombinedControlPoint> control_points = combined_control_points(control, e1, e2);
+#endif
     const HomolNames names = homol_names(e1, e2);
     make_folder(out_dir, "match_epochs");
     if (names.renamed && !quiet)
@@ -700,15 +755,27 @@ int main(int argc, char** argv) {
       }
       const CombinedAdjustmentResult adjusted =
           combined_adjustment(combined_epoch(e1, one_camera), combined_epoch(e2, false),
-                              epoch_pair_matches(precise.pairs), rough.epoch2_from_epoch1, adjustment_options);
+                              epoch_pair_matches(precise.pairs), rough.epoch2_from_epoch1, adjustment_options,
+                              control_points);
       std::vector<std::string> names;
       for (const EpochFolder* e : {&e1, &e2})
         for (const EpochImage& image : e->images) names.push_back(image.name);
       const BundleReport& r = adjusted.report;
       std::printf("adjustment: %s\n", r.message.c_str());
+      if (!control.empty()) {
+        std::size_t used = 0;
+        double worst = 0.0;
+        for (const ControlPointOutcome& g : adjusted.control_points)
+          if (g.used) {
+            ++used;
+            worst = std::max(worst, g.error.norm());
+          }
+        std::printf("control points: %zu of %zu used, largest error %.3f (epoch-2 units; report.json lists them)\n",
+                    used, control.size(), worst);
+      }
       if (!r.success) {
         write_report(out_dir + "/report.json", e1, e2, rough, overlap, precise, options, method, matcher_name,
-                     adjustment_json(adjusted, names, nullptr, adjustment_options.bundle.affine_scope));
+                     adjustment_json(adjusted, names, nullptr, adjustment_options.bundle.affine_scope, control));
         std::printf("no adjustment: %s\n", r.message.c_str());
         return 2;
       }
@@ -729,7 +796,7 @@ int main(int argc, char** argv) {
       const AdjustedExportReport exported = write_adjusted_export(images, out_dir, export_options);
       if (pictures) write_residual_pictures(out_dir + "/adjusted/residuals", e1, pictures1, adjusted);
       write_report(out_dir + "/report.json", e1, e2, rough, overlap, precise, options, method, matcher_name,
-                   adjustment_json(adjusted, names, &exported, adjustment_options.bundle.affine_scope));
+                   adjustment_json(adjusted, names, &exported, adjustment_options.bundle.affine_scope, control));
       std::printf("reprojection RMS %.3f -> %.3f px (inter-epoch %.3f -> %.3f px); wrote %s and %s "
                   "(largest COLMAP conversion error %.3f px)\n",
                   r.before.all.rms_px, r.after.all.rms_px, r.before.inter_epoch.rms_px, r.after.inter_epoch.rms_px,

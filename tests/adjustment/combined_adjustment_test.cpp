@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <optional>
 #include <vector>
 
@@ -327,4 +328,136 @@ TEST_CASE("combined_adjustment: malformed camera labels are refused", "[adjustme
   bad.frames[1] = Frame<FraserAffine>(Camera<FraserAffine>(c.focal(), c.cx(), c.cy(), c.width() + 2, c.height(), c.params()),
                                       bad.frames[1].pose());
   CHECK_THROWS_WITH(combined_adjustment(e1, bad, matches, rough), Catch::Contains("share camera label 0"));
+}
+
+namespace {
+
+// The scene's check points as control points: position in the epoch-2 frame, observations their
+// true epoch-1 pixels plus 0.3 px noise; the first `count` of those seen in 2 epoch-1 images or more.
+std::vector<CombinedControlPoint> control_points_from_check_points(const Scene& s, std::size_t count, double sigma,
+                                                                   std::vector<std::size_t>& taken) {
+  RandomStream random(77);
+  const Helmert3 e2_from_world = s.epochs[1].epoch_from_world();
+  std::vector<CombinedControlPoint> out;
+  for (std::size_t k = 0; k < s.check_points.size() && out.size() < count; k += 5) {
+    const CheckPoint& cp = s.check_points[k];
+    CombinedControlPoint g{e2_from_world(cp.world), sigma, {}, {}};
+    for (const auto& o : cp.observations) {
+      if (o.epoch != 0) continue;
+      const double ny = random.normal(0.0, 0.3);
+      g.epoch1.push_back({o.image, o.pixel + Vec2(random.normal(0.0, 0.3), ny)});
+    }
+    if (g.epoch1.size() < 2) continue;
+    out.push_back(g);
+    taken.push_back(k);
+  }
+  return out;
+}
+
+// check_point_rms over the check points not used as control points.
+double other_check_point_rms(const Scene& s, const std::vector<Frame<FraserAffine>>& frames,
+                             const std::vector<std::size_t>& taken) {
+  const Helmert3 e2_from_world = s.epochs[1].epoch_from_world();
+  double sum = 0.0;
+  int n = 0;
+  for (std::size_t k = 0; k < s.check_points.size(); ++k) {
+    if (std::find(taken.begin(), taken.end(), k) != taken.end()) continue;
+    Track t;
+    for (const auto& o : s.check_points[k].observations)
+      if (o.epoch == 0) t.observations.push_back({o.image, o.pixel, ObservationKind::intra_epoch});
+    if (t.observations.size() < 2) continue;
+    const TriangulationResult r = triangulate_track(frames, t);
+    if (!r.success) continue;
+    sum += (r.point - e2_from_world(s.check_points[k].world)).squaredNorm();
+    ++n;
+  }
+  return n >= 10 ? std::sqrt(sum / n) : std::numeric_limits<double>::infinity();
+}
+
+}  // namespace
+
+TEST_CASE("combined_adjustment: control points are the datum when both epochs are free", "[adjustment][pipeline]") {
+  const Scene& s = scene();
+  const CombinedEpoch e1 = combined_epoch(s.epochs[0]), e2 = combined_epoch(s.epochs[1]);
+  const Helmert3 rough = rough_helmert(s);
+  const std::vector<EpochPairMatches> matches = true_matches(s, 1);
+  const double gsd_e2 = s.epochs[0].gsd_m * s.epochs[1].epoch_from_world().scale;
+  std::vector<std::size_t> taken;
+  std::vector<CombinedControlPoint> control = control_points_from_check_points(s, 6, 0.05 * gsd_e2, taken);
+  REQUIRE(control.size() == 6);
+  CombinedAdjustmentOptions options;
+  options.bundle.inter_epoch_sigma_px = 1.0;
+  options.fix_reference_epoch = false;
+
+  // Without control the gauge holds the first image's rough pose: the rough Helmert's error stays.
+  const CombinedAdjustmentResult free = combined_adjustment(e1, e2, matches, rough, options);
+  INFO(free.report.message);
+  REQUIRE(free.report.success);
+  CHECK(free.control_points.empty());
+  const double without = other_check_point_rms(s, free.epoch1, taken);
+
+  const CombinedAdjustmentResult held = combined_adjustment(e1, e2, matches, rough, options, control);
+  INFO(held.report.message);
+  REQUIRE(held.report.success);
+  CHECK(held.report.control_points == control.size());
+  const double with = other_check_point_rms(s, held.epoch1, taken);
+  INFO("check points without control points " << without << ", with " << with << " epoch-2 units; GSD " << gsd_e2);
+  CHECK(with < 1.5 * gsd_e2);
+  CHECK(with * 5.0 < without);
+  REQUIRE(held.control_points.size() == control.size());
+  const std::size_t tracks = held.track_list.size();
+  for (std::size_t k = 0; k < control.size(); ++k) {
+    const ControlPointOutcome& g = held.control_points[k];
+    CHECK(g.used);
+    CHECK(g.track == tracks - control.size() + k);
+    CHECK(g.error.norm() < gsd_e2);
+    CHECK((g.point - held.points[g.track]).norm() == 0.0);
+    CHECK((g.error - (g.point - control[k].position)).norm() == 0.0);
+  }
+
+  // One control point 20 m off: the adjustment says so, in its error or by rejecting it, and the
+  // others still hold the datum.
+  std::vector<CombinedControlPoint> wrong = control;
+  const double offset = 20.0 * s.epochs[1].epoch_from_world().scale;
+  wrong[2].position.x() += offset;
+  const CombinedAdjustmentResult spoiled = combined_adjustment(e1, e2, matches, rough, options, wrong);
+  REQUIRE(spoiled.report.success);
+  const ControlPointOutcome& bad = spoiled.control_points[2];
+  INFO("the moved control point: used " << bad.used << ", error " << bad.error.transpose());
+  CHECK((!bad.used || bad.error.norm() > 0.5 * offset));
+  CHECK(other_check_point_rms(s, spoiled.epoch1, taken) < 3.0 * gsd_e2);
+
+  // With the reference fixed they are extra constraints: the answer stays as good as without them.
+  CombinedAdjustmentOptions fixed_options;
+  fixed_options.bundle.inter_epoch_sigma_px = 1.0;
+  const CombinedAdjustmentResult fixed = combined_adjustment(e1, e2, matches, rough, fixed_options, control);
+  REQUIRE(fixed.report.success);
+  CHECK(other_check_point_rms(s, fixed.epoch1, taken) < 1.5 * gsd_e2);
+}
+
+TEST_CASE("combined_adjustment: malformed control points are refused", "[adjustment][pipeline]") {
+  const Scene& s = scene();
+  const CombinedEpoch e1 = combined_epoch(s.epochs[0]), e2 = combined_epoch(s.epochs[1]);
+  const Helmert3 rough = rough_helmert(s);
+  const std::vector<EpochPairMatches> matches = true_matches(s, 1);
+  const CombinedControlPoint good{Vec3(1, 2, 3), 0.1, {{0, Vec2(10, 10)}, {1, Vec2(20, 20)}}, {}};
+  const auto refused = [&](CombinedControlPoint g, const char* what) {
+    INFO(what);
+    CHECK_THROWS_WITH(combined_adjustment(e1, e2, matches, rough, {}, {good, g}), Catch::Contains(what));
+  };
+  CombinedControlPoint g = good;
+  g.sigma = 0.0;
+  refused(g, "control point 1 needs a finite position and sigma > 0");
+  g = good;
+  g.position.z() = std::nan("");
+  refused(g, "control point 1 needs a finite position");
+  g = good;
+  g.epoch2 = {{static_cast<int>(e2.frames.size()), Vec2(1, 1)}};
+  refused(g, "control point 1 names image");
+  g = good;
+  g.epoch1[1].pixel.x() = std::numeric_limits<double>::infinity();
+  refused(g, "control point 1 has a non-finite pixel");
+  g = good;
+  g.epoch1.push_back({0, Vec2(30, 30)});
+  refused(g, "control point 1 is observed twice in one image");
 }

@@ -2,12 +2,14 @@
 # 2 x 2 images per epoch, seed 1): exit 0, every output the docs promise (rough_helmert.json, Homol,
 # report.json with the adjustment's section, adjusted/cameras.json and one COLMAP text model per
 # epoch), the adjusted epoch 1 judged at the scene's check points by score_epochs --check, and the
-# inputs unchanged.
+# inputs unchanged. With 4 of the scene's check points as ground control points (make_scene
+# --control-points, match_epochs --gcps): report.json lists each, used, with its error.
 #   cmake -DMAKE_SCENE=... -DMATCH_EPOCHS=... -DSCORE=... -DWORK=... -P match_epochs_adjust.cmake
 include("${CMAKE_CURRENT_LIST_DIR}/scene_folders.cmake")
-fresh_scene("${WORK}" --image-size 800x600 --images-per-epoch 2x2 --seed 1)
+fresh_scene("${WORK}" --image-size 800x600 --images-per-epoch 2x2 --seed 1 --control-points 4)
 folder_fingerprint("${WORK}/scene" before)
 execute_process(COMMAND "${MATCH_EPOCHS}" "${WORK}/scene/e1" "${WORK}/scene/e2" --out "${WORK}/out" --adjust --quiet
+                        --gcps "${WORK}/scene/control_points.txt"
                 RESULT_VARIABLE status OUTPUT_VARIABLE out ERROR_VARIABLE err)
 if(NOT status EQUAL 0)
   message(FATAL_ERROR "match_epochs --adjust exited with ${status}, expected 0\n${out}\n${err}")
@@ -43,6 +45,24 @@ if(NOT report MATCHES "\"camera\": *0, [^\n]*\"epoch\": *1, *\"images\": *[[]\"e
    OR NOT report MATCHES "\"camera\": *1, [^\n]*\"epoch\": *2, *\"images\": *[[]\"e2_")
   message(FATAL_ERROR "report.json does not give each camera its epoch and images:\n${report}")
 endif()
+# The control points: all four used, each within a tenth of an epoch-2 unit of its position (their
+# positions and pixels are exact).
+string(REGEX MATCHALL "{\"name\": \"cp[0-9]+\", \"observations\": [0-9]+, \"used\": true, \"error\": \[[^]]*\]}" used_points "${report}")
+list(LENGTH used_points used_count)
+if(NOT used_count EQUAL 4)
+  message(FATAL_ERROR "report.json does not list 4 used control points:\n${report}")
+endif()
+foreach(p IN LISTS used_points)
+  string(REGEX MATCH "\\[([^]]*)\\]" xyz "${p}")
+  string(REPLACE "," ";" xyz "${CMAKE_MATCH_1}")
+  foreach(v IN LISTS xyz)
+    string(STRIP "${v}" v)
+    string(REGEX REPLACE "^-" "" size "${v}")
+    if(NOT size LESS 0.1)  # a numeric comparison (CMake reads floating point, exponents included)
+      message(FATAL_ERROR "control point error ${v} is 0.1 or more: ${p}")
+    endif()
+  endforeach()
+endforeach()
 execute_process(COMMAND "${SCORE}" "${WORK}/scene" "${WORK}/out" --check RESULT_VARIABLE scored OUTPUT_VARIABLE score)
 if(NOT scored EQUAL 0)
   message(FATAL_ERROR "the adjusted orientation fails its check points (${scored}):\n${score}")

@@ -1,6 +1,6 @@
 # match_epochs on two epoch folders whose DSMs are too small to co-register (a 480 x 360 px,
 # 1 x 2 image scene from make_scene): the program must answer "no co-registration" with exit 2,
-# still write report.json, and leave the input folders as they were.
+# still write report.json, and leave the input folders as they were. Also refusals of --gcps.
 #   cmake -DMAKE_SCENE=... -DMATCH_EPOCHS=... -DWORK=... -P match_epochs_no_answer.cmake
 include("${CMAKE_CURRENT_LIST_DIR}/scene_folders.cmake")
 fresh_scene("${WORK}" --image-size 480x360 --images-per-epoch 1x2 --seed 1)
@@ -27,6 +27,25 @@ if(NOT report MATCHES "\"correlation_fallback_ran\": true, \"correlation_fallbac
 endif()
 if(EXISTS "${WORK}/out/Homol" OR EXISTS "${WORK}/out/rough_helmert.json")
   message(FATAL_ERROR "match_epochs wrote tie points or a Helmert although it found no co-registration")
+endif()
+# Control points are refused before any work: without --adjust, from a malformed file (named with
+# its line) and naming an image of neither epoch. refused_gcps(EXPECTED ARGS...): exit 1 and
+# EXPECTED on stderr.
+function(refused_gcps expected)
+  execute_process(COMMAND "${MATCH_EPOCHS}" "${WORK}/scene/e1" "${WORK}/scene/e2" --out "${WORK}/out_gcps"
+                          --gcps "${WORK}/gcps.txt" --quiet ${ARGN}
+                  RESULT_VARIABLE status OUTPUT_VARIABLE out ERROR_VARIABLE err)
+  if(NOT status EQUAL 1 OR NOT err MATCHES "${expected}")
+    message(FATAL_ERROR "match_epochs --gcps ${ARGN}: exit ${status}, expected 1 with '${expected}'\n${out}\n${err}")
+  endif()
+endfunction()
+refused_gcps("--gcps needs --adjust")
+file(WRITE "${WORK}/gcps.txt" "point A 1 2 3 0.5\nobs A e1_r0_c0.png 10 x\n")
+refused_gcps("gcps.txt' line 2: cannot read Y" --adjust)
+file(WRITE "${WORK}/gcps.txt" "point A 1 2 3 0.5\nobs A no_such_image.png 10 20\n")
+refused_gcps("control point A: no image 'no_such_image.png' in either epoch" --adjust)
+if(EXISTS "${WORK}/out_gcps")
+  message(FATAL_ERROR "match_epochs wrote output although its control points were refused")
 endif()
 folder_fingerprint("${WORK}/scene" after)
 if(NOT before STREQUAL after)

@@ -261,8 +261,9 @@ class BundleProblem {
 
   /// Adds the active observations, the GCP priors and the freedom of every block to `problem`.
   /// Blocks on which no active observation rests are not added. Gauge: when no pose is held
-  /// fixed and there is no GCP, the first observed image's pose is held fixed and, against scale,
-  /// the centre coordinate of the farthest observed image along the axis of largest separation.
+  /// fixed and fewer than 3 GCPs have their point in the problem (fewer cannot fix a 3D
+  /// similarity), the first observed image's pose is held fixed and, against scale, the centre
+  /// coordinate of the farthest observed image along the axis of largest separation.
   void add_to(ceres::Problem& problem, IntrinsicsStage stage) {
     std::vector<bool> image_used(image_count(), false);
     for (const Observation& o : observations_) {
@@ -275,9 +276,11 @@ class BundleProblem {
                                cameras_[static_cast<std::size_t>(camera_[i])].data(), affine_block_of(i).data(), poses_[i].data(),
                                points_[o.track].data());
     }
+    std::size_t priors = 0;
     for (const GroundControlPoint& g : control_) {
       if (!problem.HasParameterBlock(points_[g.track].data())) continue;
       problem.AddResidualBlock(PointPriorError::create(g.position, g.sigma), nullptr, points_[g.track].data());
+      ++priors;
     }
     bool any_pose_fixed = false;
     for (std::size_t i = 0; i < image_count(); ++i) {
@@ -302,7 +305,7 @@ class BundleProblem {
       else if (!held.empty())
         problem.SetManifold(block, new ceres::SubsetManifold(kFraserCameraBlockSize, held));
     }
-    if (!any_pose_fixed && control_.empty()) fix_gauge(problem, image_used);
+    if (!any_pose_fixed && priors < 3) fix_gauge(problem, image_used);
   }
 
   /// Number of residuals (2 per active observation, 3 per GCP) and of free parameters in

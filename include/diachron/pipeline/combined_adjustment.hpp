@@ -7,7 +7,9 @@
 /// self-calibrates epoch 1. Plain inputs in, adjusted copies and a report out.
 
 #include <algorithm>
+#include <cmath>
 #include <cstddef>
+#include <limits>
 #include <string>
 #include <utility>
 #include <vector>
@@ -62,6 +64,34 @@ std::vector<EpochPairMatches> epoch_pair_matches(const PairReports& pairs) {
   return out;
 }
 
+/// A ground control point for combined_adjustment: a point whose position in the reference frame
+/// is known (surveyed, or read off a map or the reference epoch's orthophoto and DSM), and its
+/// observations in the images of either epoch. It becomes a track of its own, weighted as the
+/// tie points (BundleOptions::intra_epoch_sigma_px), whose point is held to `position` by a prior
+/// of `sigma` per axis (BundleInput::control_points). With both epochs free
+/// (`fix_reference_epoch` false) the control points are the datum; with the reference fixed they
+/// add constraints on epoch 1. A point needs 2 observations to be triangulated and used.
+struct CombinedControlPoint {
+  /// Position in the epoch-2 frame (the reference's, which the adjustment works in), its units.
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();
+  /// Standard deviation of the position per axis, epoch-2 units, > 0.
+  double sigma = 1.0;
+  /// Observations in epoch 1's images (index within epoch 1, px) and in epoch 2's.
+  std::vector<ImagePixel> epoch1 = {};
+  std::vector<ImagePixel> epoch2 = {};
+};
+
+/// What became of a control point in combined_adjustment. Default: not used.
+struct ControlPointOutcome {
+  /// Triangulated and kept to the end (not rejected).
+  bool used = false;
+  /// Its adjusted point and the point minus its given position, epoch-2 frame; NaN when not used.
+  Eigen::Vector3d point = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
+  Eigen::Vector3d error = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
+  /// Index of its track in CombinedAdjustmentResult::track_list.
+  std::size_t track = 0;
+};
+
 /// Options of combined_adjustment.
 struct CombinedAdjustmentOptions {
   /// The bundle adjustment. When `bundle.epochs` is empty the stage fills it: epoch 1 all free,
@@ -105,6 +135,8 @@ struct CombinedAdjustmentResult {
   std::vector<Eigen::Vector3d> points;
   /// Whether each track took part to the end (after rejection).
   std::vector<bool> track_used;
+  /// One per control point given, in their order (their tracks come last in track_list).
+  std::vector<ControlPointOutcome> control_points;
 };
 
 namespace detail {
@@ -154,13 +186,15 @@ inline std::vector<int> combined_epoch_cameras(const CombinedEpoch& epoch, const
 /// @param epoch1, epoch2 the epochs in their own frames.
 /// @param matches inter-epoch matches per image pair (epoch-1 master, epoch-2 secondary).
 /// @param epoch2_from_epoch1 the rough co-registration.
+/// @param control_points ground control points, if any (CombinedControlPoint).
 /// Data failures (e.g. no inter-epoch match: "too few inter-epoch tracks") give
-/// report.success == false; malformed input (an image index out of range, non-finite pixels,
-/// bad options) throws diachron::Error.
+/// report.success == false; malformed input (an image index out of range, non-finite pixels or
+/// positions, a control point's sigma <= 0, bad options) throws diachron::Error.
 inline CombinedAdjustmentResult combined_adjustment(const CombinedEpoch& epoch1, const CombinedEpoch& epoch2,
                                                     const std::vector<EpochPairMatches>& matches,
                                                     const Helmert3& epoch2_from_epoch1,
-                                                    const CombinedAdjustmentOptions& options = {}) {
+                                                    const CombinedAdjustmentOptions& options = {},
+                                                    const std::vector<CombinedControlPoint>& control_points = {}) {
   const int n1 = static_cast<int>(epoch1.frames.size());
   const int n2 = static_cast<int>(epoch2.frames.size());
   CombinedAdjustmentResult result;
@@ -212,7 +246,37 @@ inline CombinedAdjustmentResult combined_adjustment(const CombinedEpoch& epoch1,
   TrackSet tracks = build_tracks(ties, links, n1 + n2, options.tracks);
   result.tracks = tracks.report;
   input.tracks = tracks.tracks;
-  result.track_list = std::move(tracks.tracks);
+  // Each control point is a track of its own, outside the union-find: its observations are
+  // measured by hand, not matched, and must not merge with a tie point through a shared pixel.
+  for (std::size_t k = 0; k < control_points.size(); ++k) {
+    const CombinedControlPoint& g = control_points[k];
+    DIACHRON_CHECK(g.position.allFinite() && std::isfinite(g.sigma) && g.sigma > 0.0,
+                   "combined_adjustment: control point " << k << " needs a finite position and sigma > 0, got sigma "
+                                                         << g.sigma);
+    Track track;
+    const auto add = [&](const std::vector<ImagePixel>& observations, int offset, int count) {
+      for (const ImagePixel& o : observations) {
+        DIACHRON_CHECK(o.image >= 0 && o.image < count, "combined_adjustment: control point "
+                                                            << k << " names image " << o.image << " outside [0, "
+                                                            << count << ")");
+        DIACHRON_CHECK(o.pixel.allFinite(), "combined_adjustment: control point " << k << " has a non-finite pixel");
+        track.observations.push_back({o.image + offset, o.pixel, ObservationKind::intra_epoch});
+      }
+    };
+    add(g.epoch1, 0, n1);
+    add(g.epoch2, n1, n2);
+    std::stable_sort(track.observations.begin(), track.observations.end(),
+                     [](const TrackObservation& a, const TrackObservation& b) { return a.image < b.image; });
+    for (std::size_t j = 1; j < track.observations.size(); ++j)
+      DIACHRON_CHECK(track.observations[j].image != track.observations[j - 1].image,
+                     "combined_adjustment: control point " << k << " is observed twice in one image");
+    ControlPointOutcome outcome;
+    outcome.track = input.tracks.size();
+    result.control_points.push_back(outcome);
+    input.control_points.push_back({input.tracks.size(), g.position, g.sigma});
+    input.tracks.push_back(std::move(track));
+  }
+  result.track_list = input.tracks;
 
   BundleOptions bundle = options.bundle;
   if (bundle.epochs.empty())
@@ -225,6 +289,13 @@ inline CombinedAdjustmentResult combined_adjustment(const CombinedEpoch& epoch1,
   result.epoch2.assign(adjusted.frames.begin() + n1, adjusted.frames.end());
   result.points = std::move(adjusted.points);
   result.track_used = std::move(adjusted.track_used);
+  for (std::size_t k = 0; k < control_points.size(); ++k) {
+    ControlPointOutcome& outcome = result.control_points[k];
+    outcome.used = result.track_used[outcome.track];
+    if (!outcome.used) continue;
+    outcome.point = result.points[outcome.track];
+    outcome.error = outcome.point - control_points[k].position;
+  }
   return result;
 }
 
