@@ -52,10 +52,11 @@ constexpr const char* kUsage =
     "  --scan-frame PX          draw a scan's film frame (a dark band of PX px with fiducial marks and a\n"
     "                           data strip) over the images of every epoch but the last, and write their\n"
     "                           masks as OUT/<epoch>/masks/<image>.png (0 on the frame; default 0: none)\n"
-    "  --control-points N       also write OUT/control_points.txt (io/control_points.hpp): the first N check\n"
-    "                           points seen in 2 or more images of the first epoch, positions in the last\n"
-    "                           epoch's frame (sigma 0.1 m), their true pixels; for match_epochs --gcps.\n"
-    "                           They stay among score_epochs' check points (default 0: none)\n"
+    "  --control-points N       also write OUT/control_points.txt and OUT/check_points.txt (io/\n"
+    "                           control_points.hpp): of the check points seen in 2 or more images of the\n"
+    "                           first epoch, the first N and the others, positions in the last epoch's\n"
+    "                           frame (sigma 0.1 m), their true pixels; for match_epochs --gcps and\n"
+    "                           --check-points. score_epochs still scores all (default 0: none)\n"
     "  --threads N              worker threads, 0 = all cores (default 0)\n";
 
 // Flags that are not given leave the preset's value alone.
@@ -212,34 +213,46 @@ diachron::SceneOptions scene_options(const Arguments& args) {
   return options;
 }
 
-// Writes the first `count` check points seen in 2 or more images of the first epoch as a
-// control-point file: positions in the last epoch's frame (its units; sigma 0.1 m), the true
-// pixels in the first epoch's images (named as write_scene names them: <name>.png). Returns how many it wrote.
-int write_control_points(const diachron::Scene& scene, int count, const std::string& path) {
+// Writes the check points seen in 2 or more images of the first epoch as two files of
+// io/control_points.hpp's layout: the first `count` to `control_path`, the others to `check_path`.
+// Positions in the last epoch's frame (its units; sigma 0.1 m), the true pixels in the first
+// epoch's images (named as write_scene names them: <name>.png). Returns how many control points
+// and check points it wrote.
+std::pair<int, int> write_point_files(const diachron::Scene& scene, int count, const std::string& control_path,
+                                      const std::string& check_path) {
   const diachron::SyntheticEpoch& first = scene.epochs.front();
   const diachron::Helmert3 reference_from_world = scene.epochs.back().epoch_from_world();
-  std::FILE* out = std::fopen(path.c_str(), "w");
-  if (!out) throw diachron::Error("make_scene: cannot write " + path);
-  std::fprintf(out, "# make_scene: check points of the scene as control points of %s against %s (positions in %s's\n"
-                    "# frame, its units; true pixels, diachron convention). io/control_points.hpp\n",
-               first.name.c_str(), scene.epochs.back().name.c_str(), scene.epochs.back().name.c_str());
-  int written = 0;
-  for (std::size_t k = 0; k < scene.check_points.size() && written < count; ++k) {
+  std::FILE* files[2] = {std::fopen(control_path.c_str(), "w"), std::fopen(check_path.c_str(), "w")};
+  if (!files[0] || !files[1]) {
+    for (std::FILE* f : files)
+      if (f) std::fclose(f);
+    throw diachron::Error("make_scene: cannot write " + control_path + " or " + check_path);
+  }
+  for (const char* what : {"control", "check"}) {
+    std::FILE* out = files[what[1] == 'h' ? 1 : 0];
+    std::fprintf(out, "# make_scene: check points of the scene as %s points of %s against %s (positions in %s's\n"
+                      "# frame, its units; true pixels, diachron convention). io/control_points.hpp\n",
+                 what, first.name.c_str(), scene.epochs.back().name.c_str(), scene.epochs.back().name.c_str());
+  }
+  int written[2] = {0, 0};
+  for (std::size_t k = 0; k < scene.check_points.size(); ++k) {
     const diachron::CheckPoint& cp = scene.check_points[k];
     std::vector<const diachron::CheckPoint::Observation*> seen;
     for (const auto& o : cp.observations)
       if (o.epoch == 0) seen.push_back(&o);
     if (seen.size() < 2) continue;
+    const int which = written[0] < count ? 0 : 1;
     const diachron::Vec3 p = reference_from_world(cp.world);
-    std::fprintf(out, "point cp%zu %.6f %.6f %.6f %.6f\n", k, p.x(), p.y(), p.z(), 0.1 * reference_from_world.scale);
+    std::fprintf(files[which], "point cp%zu %.6f %.6f %.6f %.6f\n", k, p.x(), p.y(), p.z(),
+                 0.1 * reference_from_world.scale);
     for (const auto* o : seen)
-      std::fprintf(out, "obs cp%zu %s.png %.4f %.4f\n", k, first.images[static_cast<std::size_t>(o->image)].name.c_str(),
-                   o->pixel.x(), o->pixel.y());
-    ++written;
+      std::fprintf(files[which], "obs cp%zu %s.png %.4f %.4f\n", k,
+                   first.images[static_cast<std::size_t>(o->image)].name.c_str(), o->pixel.x(), o->pixel.y());
+    ++written[which];
   }
-  const bool ok = std::fclose(out) == 0;
-  if (!ok) throw diachron::Error("make_scene: cannot write " + path);
-  return written;
+  const bool ok = std::fclose(files[0]) == 0 && std::fclose(files[1]) == 0;
+  if (!ok) throw diachron::Error("make_scene: cannot write " + control_path + " or " + check_path);
+  return {written[0], written[1]};
 }
 
 }  // namespace
@@ -286,8 +299,10 @@ int main(int argc, char** argv) {
     }
 
     if (args.control_points > 0) {
-      const int written = write_control_points(scene, args.control_points, args.out_dir + "/control_points.txt");
-      std::printf("%d control points written to %s/control_points.txt\n", written, args.out_dir.c_str());
+      const auto [control, check] = write_point_files(scene, args.control_points, args.out_dir + "/control_points.txt",
+                                                      args.out_dir + "/check_points.txt");
+      std::printf("%d control points written to %s/control_points.txt, %d check points to %s/check_points.txt\n",
+                  control, args.out_dir.c_str(), check, args.out_dir.c_str());
     }
     std::printf("scene written to %s (preset %s, seed %llu, generated in %.2f s, %.2f s of CPU)\n",
                 args.out_dir.c_str(), args.preset.c_str(), static_cast<unsigned long long>(scene.seed), seconds,

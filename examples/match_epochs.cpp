@@ -17,10 +17,12 @@
 // and with --adjust (the combined adjustment, pipeline/combined_adjustment.hpp: epoch 2 fixed,
 // epoch 1's poses, Fraser camera and affine parts free, intra-epoch tie points from points3D.txt
 // and the inter-epoch ones above; images whose cameras hold the same values share one, or all of
-// epoch 1's with --one-camera), in epoch 2's frame:
+// epoch 1's with --one-camera; ground control points from --gcps FILE, io/control_points.hpp), in
+// epoch 2's frame:
 //   DIR/adjusted/cameras.json, DIR/adjusted/<epoch>/  the adjusted orientation (io/adjusted_export.hpp)
 //   DIR/adjusted/residuals/<image>.png                 reprojection residuals of epoch 1's tie points
-//   the "adjustment" section of report.json
+//   the "adjustment" section of report.json (with each control point's error, and with
+//   --check-points FILE the check points' errors after the rough co-registration and after it)
 // Progress on stderr. Exit status: 0 success, 2 no co-registration, no match or no adjustment
 // (reason printed), 1 bad input (one line). The input folders are never written to. The stages are pipeline/rough_coregistration.hpp,
 // pipeline/overlapping_pairs.hpp and pipeline/precise_matching.hpp; docs/precise-matching.md says
@@ -58,6 +60,8 @@
 
 #include <opencv2/imgproc.hpp>
 #if DIACHRON_MATCH_EPOCHS_ADJUST
+#include <diachron/adjustment/triangulation.hpp>
+#include <diachron/eval/check_points.hpp>
 #include <diachron/eval/distortion_precision.hpp>
 #include <diachron/io/adjusted_export.hpp>
 #include <diachron/pipeline/combined_adjustment.hpp>
@@ -126,6 +130,10 @@ const char* kUsage =
     "                                         X Y Z SIGMA' (epoch 2's frame) and 'obs NAME IMAGE X Y'\n"
     "                                         (IMAGE of either images.txt, diachron pixels; io/\n"
     "                                         control_points.hpp); report.json gives their errors\n"
+    "  --check-points FILE                    with --adjust: independent check points, the same layout\n"
+    "                                         (SIGMA ignored; observations in epoch 1's images): their\n"
+    "                                         errors after the rough co-registration and after the\n"
+    "                                         adjustment (the paper's table) on stdout and report.json\n"
     "  --threads N                            worker threads, 0 = all cores (default 0)\n"
     "  --quiet                                no progress on stderr\n";
 
@@ -300,8 +308,10 @@ std::string json_number_or_null(double v) {
 
 // The control points of a control-point file with their image names resolved in the two epochs:
 // each name must be an image of exactly one of them.
+// `what` names them in messages ("control point", "check point").
 std::vector<CombinedControlPoint> combined_control_points(const std::vector<ControlPointRecord>& records,
-                                                          const EpochFolder& e1, const EpochFolder& e2) {
+                                                          const EpochFolder& e1, const EpochFolder& e2,
+                                                          const char* what) {
   std::map<std::string, std::pair<int, int>> where;  // name -> (epoch 1 or 2, index)
   for (int epoch : {1, 2}) {
     const EpochFolder& e = epoch == 1 ? e1 : e2;
@@ -315,9 +325,9 @@ std::vector<CombinedControlPoint> combined_control_points(const std::vector<Cont
     CombinedControlPoint g{r.position, r.sigma, {}, {}};
     for (const auto& [image, pixel] : r.observations) {
       const auto it = where.find(image);
-      DIACHRON_CHECK(it != where.end(), "control point " << r.name << ": no image '" << image << "' in either epoch");
-      DIACHRON_CHECK(it->second.first != 0, "control point " << r.name << ": image '" << image
-                                                             << "' is in both epochs; rename one of them");
+      DIACHRON_CHECK(it != where.end(), what << " " << r.name << ": no image '" << image << "' in either epoch");
+      DIACHRON_CHECK(it->second.first != 0,
+                     what << " " << r.name << ": image '" << image << "' is in both epochs; rename one of them");
       (it->second.first == 1 ? g.epoch1 : g.epoch2).push_back({it->second.second, pixel});
     }
     out.push_back(std::move(g));
@@ -329,7 +339,8 @@ std::vector<CombinedControlPoint> combined_control_points(const std::vector<Cont
 // `names`: the images' names, epoch 1's then epoch 2's (CombinedAdjustmentResult::image_camera's order).
 std::string adjustment_json(const CombinedAdjustmentResult& a, const std::vector<std::string>& names,
                             const AdjustedExportReport* exported, AffineScope affine_scope,
-                            const std::vector<ControlPointRecord>& control) {
+                            const std::vector<ControlPointRecord>& control,
+                            const std::optional<std::pair<CheckPointReport, CheckPointReport>>& checked) {
   const BundleReport& r = a.report;
   std::ostringstream o;
   o << "  \"adjustment\": {\"success\": " << (r.success ? "true" : "false") << ", \"message\": " << quoted(r.message)
@@ -396,7 +407,29 @@ std::string adjustment_json(const CombinedAdjustmentResult& a, const std::vector
       o << "null";
     o << "}";
   }
-  o << "],\n    \"max_conversion_error_px\": "
+  o << "],\n    \"check_points\": ";
+  if (checked) {
+    // Per axis mu, sigma, |mu| (mean of |e|) and RMS of e = triangulated - given, epoch-2 units.
+    const auto stats = [&o](const CheckPointReport& c) {
+      o << "{\"used\": " << c.num_used << ", \"failed\": " << c.num_failed << ", \"rms_3d\": "
+        << json_number_or_null(c.rms_3d_m);
+      const char* axis[3] = {"x", "y", "z"};
+      for (int k = 0; k < 3; ++k)
+        o << ", \"" << axis[k] << "\": {\"mean\": " << json_number_or_null(c.axes_m[static_cast<std::size_t>(k)].mean)
+          << ", \"sigma\": " << json_number_or_null(c.axes_m[static_cast<std::size_t>(k)].sigma)
+          << ", \"mean_abs\": " << json_number_or_null(c.axes_m[static_cast<std::size_t>(k)].mean_abs)
+          << ", \"rms\": " << json_number_or_null(c.axes_m[static_cast<std::size_t>(k)].rms) << "}";
+      o << "}";
+    };
+    o << "{\"rough\": ";
+    stats(checked->first);
+    o << ",\n      \"adjusted\": ";
+    stats(checked->second);
+    o << "}";
+  } else {
+    o << "null";
+  }
+  o << ",\n    \"max_conversion_error_px\": "
     << (exported ? json_number_or_null(exported->max_conversion_error_px) : std::string("null"))
     << ", \"seconds\": " << r.seconds << "},\n";
   return o.str();
@@ -497,6 +530,7 @@ int main(int argc, char** argv) {
   bool quiet = false, pictures = true, adjust = false, fallback = true, one_camera = false;
   std::string hold;  // --hold: epoch 1's intrinsics held, comma-separated names
   std::string gcps;  // --gcps: the control-point file
+  std::string checks;  // --check-points: the check-point file
   double min_overlap = 0.1;
   std::optional<int> cell;  // unset: the default cell
   std::optional<long long> max_points;  // unset: PreciseCorrelationOptions' bound
@@ -546,6 +580,7 @@ int main(int argc, char** argv) {
       else if (a == "--one-camera") one_camera = true;
       else if (a == "--hold") hold = value();
       else if (a == "--gcps") gcps = value();
+      else if (a == "--check-points") checks = value();
       else if (a == "--quiet") quiet = true;
       else if (a == "--help" || a == "-h") {
         std::cout << kUsage;
@@ -567,6 +602,9 @@ int main(int argc, char** argv) {
     DIACHRON_CHECK(adjust || gcps.empty(), "--gcps needs --adjust");
     // Read before any work: a malformed file fails fast. Its image names are checked below.
     const std::vector<ControlPointRecord> control = gcps.empty() ? std::vector<ControlPointRecord>{} : read_control_points(gcps);
+    DIACHRON_CHECK(adjust || checks.empty(), "--check-points needs --adjust");
+    const std::vector<ControlPointRecord> check_records =
+        checks.empty() ? std::vector<ControlPointRecord>{} : read_control_points(checks);
 #if DIACHRON_MATCH_EPOCHS_ADJUST
     const std::vector<Intrinsic> held = parse_intrinsics(hold);  // before any work: a typo fails fast
 #endif
@@ -637,7 +675,14 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "warning: '%s/dsm.tif' has heights of %g far below all others and no nodata tag for "
                              "them: if they are holes, pass --nodata %g\n", e->directory.c_str(), *v, *v);
 #if DIACHRON_MATCH_EPOCHS_ADJUST
-    const std::vector<CombinedControlPoint> control_points = combined_control_points(control, e1, e2);
+    const std::vector<CombinedControlPoint> control_points = combined_control_points(control, e1, e2, "control point");
+    // Check points: the same resolution of names; only their epoch-1 observations count.
+    std::vector<ObservedCheckPoint> check_points;
+    for (const CombinedControlPoint& c : combined_control_points(check_records, e1, e2, "check point")) {
+      ObservedCheckPoint p{c.position, {}};
+      for (const ImagePixel& o : c.epoch1) p.observations.push_back({static_cast<std::size_t>(o.image), o.pixel});
+      check_points.push_back(std::move(p));
+    }
 #endif
     const HomolNames names = homol_names(e1, e2);
     make_folder(out_dir, "match_epochs");
@@ -773,9 +818,31 @@ int main(int argc, char** argv) {
         std::printf("control points: %zu of %zu used, largest error %.3f (epoch-2 units; report.json lists them)\n",
                     used, control.size(), worst);
       }
+      // The check points triangulated in epoch 1's images, after the rough co-registration alone and
+      // after the adjustment: the paper's check-point table.
+      std::optional<std::pair<CheckPointReport, CheckPointReport>> checked;
+      if (!check_records.empty()) {
+        const std::vector<Frame<FraserAffine>> moved =
+            transformed_frames(combined_epoch(e1, one_camera).frames, rough.epoch2_from_epoch1);
+        checked.emplace(evaluate_check_points(check_points, FrameTriangulator<FraserAffine>(moved)),
+                        r.success ? evaluate_check_points(check_points, FrameTriangulator<FraserAffine>(adjusted.epoch1))
+                                  : CheckPointReport{});
+        std::printf("check points (epoch-2 units), %zu of %zu triangulated in epoch 1's images:\n",
+                    checked->first.num_used, check_points.size());
+        std::printf("| orientation    | axis |    mean |  sigma | mean |e| |    RMS |\n");
+        for (const auto& [name, c] : {std::make_pair("rough only", &checked->first), std::make_pair("adjusted", &checked->second)}) {
+          if (!c->success) continue;
+          const char* axis[3] = {"x", "y", "z"};
+          for (std::size_t k = 0; k < 3; ++k)
+            std::printf("| %-14s | %s    | %7.3f | %6.3f | %8.3f | %6.3f |\n", k == 0 ? name : "", axis[k],
+                        c->axes_m[k].mean, c->axes_m[k].sigma, c->axes_m[k].mean_abs, c->axes_m[k].rms);
+        }
+        if (checked->first.success && checked->second.success)
+          std::printf("3D RMS: rough only %.3f, adjusted %.3f\n", checked->first.rms_3d_m, checked->second.rms_3d_m);
+      }
       if (!r.success) {
         write_report(out_dir + "/report.json", e1, e2, rough, overlap, precise, options, method, matcher_name,
-                     adjustment_json(adjusted, names, nullptr, adjustment_options.bundle.affine_scope, control));
+                     adjustment_json(adjusted, names, nullptr, adjustment_options.bundle.affine_scope, control, checked));
         std::printf("no adjustment: %s\n", r.message.c_str());
         return 2;
       }
@@ -796,7 +863,7 @@ int main(int argc, char** argv) {
       const AdjustedExportReport exported = write_adjusted_export(images, out_dir, export_options);
       if (pictures) write_residual_pictures(out_dir + "/adjusted/residuals", e1, pictures1, adjusted);
       write_report(out_dir + "/report.json", e1, e2, rough, overlap, precise, options, method, matcher_name,
-                   adjustment_json(adjusted, names, &exported, adjustment_options.bundle.affine_scope, control));
+                   adjustment_json(adjusted, names, &exported, adjustment_options.bundle.affine_scope, control, checked));
       std::printf("reprojection RMS %.3f -> %.3f px (inter-epoch %.3f -> %.3f px); wrote %s and %s "
                   "(largest COLMAP conversion error %.3f px)\n",
                   r.before.all.rms_px, r.after.all.rms_px, r.before.inter_epoch.rms_px, r.after.inter_epoch.rms_px,

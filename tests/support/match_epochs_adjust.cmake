@@ -3,13 +3,15 @@
 # report.json with the adjustment's section, adjusted/cameras.json and one COLMAP text model per
 # epoch), the adjusted epoch 1 judged at the scene's check points by score_epochs --check, and the
 # inputs unchanged. With 4 of the scene's check points as ground control points (make_scene
-# --control-points, match_epochs --gcps): report.json lists each, used, with its error.
+# --control-points, match_epochs --gcps): report.json lists each, used, with its error. The scene's
+# other check points through match_epochs --check-points: their 3D RMS in report.json at least 3
+# times smaller after the adjustment than after the rough co-registration.
 #   cmake -DMAKE_SCENE=... -DMATCH_EPOCHS=... -DSCORE=... -DWORK=... -P match_epochs_adjust.cmake
 include("${CMAKE_CURRENT_LIST_DIR}/scene_folders.cmake")
 fresh_scene("${WORK}" --image-size 800x600 --images-per-epoch 2x2 --seed 1 --control-points 4)
 folder_fingerprint("${WORK}/scene" before)
 execute_process(COMMAND "${MATCH_EPOCHS}" "${WORK}/scene/e1" "${WORK}/scene/e2" --out "${WORK}/out" --adjust --quiet
-                        --gcps "${WORK}/scene/control_points.txt"
+                        --gcps "${WORK}/scene/control_points.txt" --check-points "${WORK}/scene/check_points.txt"
                 RESULT_VARIABLE status OUTPUT_VARIABLE out ERROR_VARIABLE err)
 if(NOT status EQUAL 0)
   message(FATAL_ERROR "match_epochs --adjust exited with ${status}, expected 0\n${out}\n${err}")
@@ -63,6 +65,34 @@ foreach(p IN LISTS used_points)
     endif()
   endforeach()
 endforeach()
+if(NOT report MATCHES "\"check_points\": {\"rough\": {\"used\": ([0-9]+), \"failed\": 0, \"rms_3d\": ([0-9.e+-]+)")
+  message(FATAL_ERROR "report.json has no check-point figures after the rough co-registration:\n${report}")
+endif()
+set(rough_used "${CMAKE_MATCH_1}")
+set(rough_rms "${CMAKE_MATCH_2}")
+if(NOT report MATCHES "\"adjusted\": {\"used\": ([0-9]+), \"failed\": 0, \"rms_3d\": ([0-9.e+-]+)")
+  message(FATAL_ERROR "report.json has no check-point figures after the adjustment:\n${report}")
+endif()
+set(adjusted_rms "${CMAKE_MATCH_2}")
+if(rough_used LESS 10 OR NOT CMAKE_MATCH_1 EQUAL rough_used)
+  message(FATAL_ERROR "report.json's check points: ${rough_used} used after the rough co-registration, ${CMAKE_MATCH_1} after the adjustment")
+endif()
+# CMake's math is integer only: both RMS in thousandths of a unit.
+function(thousandths value out)
+  if(NOT value MATCHES "^([0-9]+)(\\.([0-9]*))?$")
+    message(FATAL_ERROR "not a plain decimal number: ${value}")
+  endif()
+  string(SUBSTRING "${CMAKE_MATCH_3}000" 0 3 fraction)
+  math(EXPR result "${CMAKE_MATCH_1} * 1000 + 1${fraction} - 1000")
+  set(${out} ${result} PARENT_SCOPE)
+endfunction()
+thousandths("${rough_rms}" rough_k)
+thousandths("${adjusted_rms}" adjusted_k)
+math(EXPR adjusted_k3 "3 * ${adjusted_k}")
+if(NOT adjusted_k3 LESS rough_k)
+  message(FATAL_ERROR "check points (report.json) not 3 times better after the adjustment: ${rough_rms} -> ${adjusted_rms}")
+endif()
+message(STATUS "check points through match_epochs --check-points: 3D RMS ${rough_rms} -> ${adjusted_rms} (epoch-2 units)")
 execute_process(COMMAND "${SCORE}" "${WORK}/scene" "${WORK}/out" --check RESULT_VARIABLE scored OUTPUT_VARIABLE score)
 if(NOT scored EQUAL 0)
   message(FATAL_ERROR "the adjusted orientation fails its check points (${scored}):\n${score}")

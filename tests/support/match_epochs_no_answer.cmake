@@ -28,22 +28,25 @@ endif()
 if(EXISTS "${WORK}/out/Homol" OR EXISTS "${WORK}/out/rough_helmert.json")
   message(FATAL_ERROR "match_epochs wrote tie points or a Helmert although it found no co-registration")
 endif()
-# Control points are refused before any work: without --adjust, from a malformed file (named with
-# its line) and naming an image of neither epoch. refused_gcps(EXPECTED ARGS...): exit 1 and
+# Control and check points are refused before any work: without --adjust, from a malformed file
+# (named with its line) and naming an image of neither epoch. refused_gcps(EXPECTED ARGS...): exit 1 and
 # EXPECTED on stderr.
 function(refused_gcps expected)
   execute_process(COMMAND "${MATCH_EPOCHS}" "${WORK}/scene/e1" "${WORK}/scene/e2" --out "${WORK}/out_gcps"
-                          --gcps "${WORK}/gcps.txt" --quiet ${ARGN}
+                          --quiet ${ARGN}
                   RESULT_VARIABLE status OUTPUT_VARIABLE out ERROR_VARIABLE err)
   if(NOT status EQUAL 1 OR NOT err MATCHES "${expected}")
     message(FATAL_ERROR "match_epochs --gcps ${ARGN}: exit ${status}, expected 1 with '${expected}'\n${out}\n${err}")
   endif()
 endfunction()
-refused_gcps("--gcps needs --adjust")
+refused_gcps("--gcps needs --adjust" --gcps "${WORK}/gcps.txt")
+refused_gcps("--check-points needs --adjust" --check-points "${WORK}/gcps.txt")
 file(WRITE "${WORK}/gcps.txt" "point A 1 2 3 0.5\nobs A e1_r0_c0.png 10 x\n")
-refused_gcps("gcps.txt' line 2: cannot read Y" --adjust)
+refused_gcps("gcps.txt' line 2: cannot read Y" --adjust --gcps "${WORK}/gcps.txt")
+refused_gcps("gcps.txt' line 2: cannot read Y" --adjust --check-points "${WORK}/gcps.txt")
 file(WRITE "${WORK}/gcps.txt" "point A 1 2 3 0.5\nobs A no_such_image.png 10 20\n")
-refused_gcps("control point A: no image 'no_such_image.png' in either epoch" --adjust)
+refused_gcps("control point A: no image 'no_such_image.png' in either epoch" --adjust --gcps "${WORK}/gcps.txt")
+refused_gcps("check point A: no image 'no_such_image.png' in either epoch" --adjust --check-points "${WORK}/gcps.txt")
 if(EXISTS "${WORK}/out_gcps")
   message(FATAL_ERROR "match_epochs wrote output although its control points were refused")
 endif()
