@@ -111,7 +111,6 @@
 #include <diachron/pipeline/precise_matching.hpp>
 #include <diachron/pipeline/rough_coregistration.hpp>
 #include <diachron/synth/scene.hpp>
-#include <diachron/terrain/local_relief.hpp>
 #include <diachron/vision/extractor_pair_matcher.hpp>
 #include <diachron/vision/sift.hpp>
 
@@ -490,15 +489,20 @@ int run(int argc, char** argv) {
     const MatchTruthScorer truth(scene);
     std::size_t count = 0, correct = 0;
     Vec2 bias = Vec2::Zero();  // mean error of the correct matches, epoch-2 px: a systematic shift shows here
-    for (const EpochPairMatches& pair : matches)
+    // Each match's truth, per pair in the matches' order, kept for the oracles below.
+    std::vector<std::vector<MatchTruth>> match_truths;
+    for (const EpochPairMatches& pair : matches) {
+      match_truths.emplace_back();
       for (const PointMatch& m : pair.matches) {
         ++count;
         const MatchTruth t = truth.score({0, static_cast<int>(pair.master)}, {1, static_cast<int>(pair.secondary)}, m.a, m.b);
+        match_truths.back().push_back(t);
         if (t.scored() && t.error_px < 3.0) {
           ++correct;
           bias += m.b - t.true_pixel;
         }
       }
+    }
     inter_matches.push_back(static_cast<double>(count));
     inter_correct.push_back(static_cast<double>(correct));
     if (correct > 0) bias /= static_cast<double>(correct);
@@ -567,19 +571,20 @@ int run(int argc, char** argv) {
     // free offset per pair, or per pair and kind of ground, could win at best.
     constexpr double kReliefGsd = 2.0;
     std::vector<EpochPairMatches> pair_debiased, relief_debiased;
-    for (const EpochPairMatches& pair : matches) {
+    for (std::size_t p = 0; p < matches.size(); ++p) {
+      const EpochPairMatches& pair = matches[p];
       const auto transfer = make_dsm_transfer(frames1[pair.master], e1.dsm, frames2[pair.secondary], helmert);
       const Raster<std::uint8_t>& img2 = e2.images[pair.secondary].pixels;
       const double g2 = detail::image_gsd(frames2[pair.secondary], e2.dsm, img2.width(), img2.height());
-      const double radius = precise_options.correlation.relief_radius_px * g2;
       std::vector<int> kind(pair.matches.size(), 0);  // 1: on relief
       Vec2 sum_all = Vec2::Zero(), sum_kind[2] = {Vec2::Zero(), Vec2::Zero()};
       int n_all = 0, n_kind[2] = {0, 0};
       for (std::size_t k = 0; k < pair.matches.size(); ++k) {
         const PointMatch& m = pair.matches[k];
-        if (const auto x2 = transfer.secondary_point(m.a))
-          if (const LocalRelief lr = local_relief(e2.dsm, x2->head<2>(), radius); lr.valid && lr.rms / g2 >= kReliefGsd) kind[k] = 1;
-        const MatchTruth t = truth.score({0, static_cast<int>(pair.master)}, {1, static_cast<int>(pair.secondary)}, m.a, m.b);
+        if (bench::relief_gsd(e2.dsm, transfer.secondary_point(m.a), precise_options.correlation.relief_radius_px, g2) >=
+            kReliefGsd)
+          kind[k] = 1;
+        const MatchTruth& t = match_truths[p][k];
         if (!t.scored() || t.error_px >= 3.0) continue;
         sum_all += m.b - t.true_pixel;
         ++n_all;

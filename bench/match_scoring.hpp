@@ -8,14 +8,26 @@
 #include <chrono>
 #include <cmath>
 #include <cstddef>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
 
 #include <diachron/eval/match_truth.hpp>
 #include <diachron/synth/epoch.hpp>
+#include <diachron/terrain/local_relief.hpp>
 
 namespace diachron::bench {
+
+/// The relief of `dsm` around a ground point (the transfer's master_point or secondary_point of a
+/// match, nullopt when it has none): the plane-fit RMS over a disc of `radius_px` image px, in the
+/// image's GSD `gsd` (metres or DSM units per px). NaN where it cannot be measured.
+template <class Point>
+double relief_gsd(const Dsm& dsm, const std::optional<Point>& ground, double radius_px, double gsd) {
+  if (!ground) return std::nan("");
+  const LocalRelief lr = local_relief(dsm, ground->template head<2>(), radius_px * gsd);
+  return lr.valid ? lr.rms / gsd : std::nan("");
+}
 
 inline double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

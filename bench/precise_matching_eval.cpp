@@ -510,11 +510,8 @@ int main(int argc, char** argv) {
                 hxx = -shape->curvature(0, 0); hxy = -shape->curvature(0, 1); hyy = -shape->curvature(1, 1);
                 a00 = shape->affine(0, 0); a01 = shape->affine(0, 1); a10 = shape->affine(1, 0); a11 = shape->affine(1, 1);
               }
-              double relief1 = std::nan(""), relief2 = std::nan("");
-              if (const auto x1 = transfer.master_point(pm.a))
-                if (const LocalRelief lr = local_relief(e1.dsm, x1->head<2>(), radius_px * g1); lr.valid) relief1 = lr.rms / g1;
-              if (const auto x2 = transfer.secondary_point(pm.a))
-                if (const LocalRelief lr = local_relief(e2.dsm, x2->head<2>(), radius_px * g2); lr.valid) relief2 = lr.rms / g2;
+              const double relief1 = bench::relief_gsd(e1.dsm, transfer.master_point(pm.a), radius_px, g1);
+              const double relief2 = bench::relief_gsd(e2.dsm, transfer.secondary_point(pm.a), radius_px, g2);
               std::fprintf(dump, "%s %llu %zu %zu %.3f %.3f %.3f %.3f %.5f %.4f %d %.4f %.4f %.4f %.4f %.5f %.5f %.5f %.4f %.4f %.4f %.4f %.3f %.3f\n", m.c_str(),
                            static_cast<unsigned long long>(scene_options.seed), r.master, r.secondary, pm.a.x(), pm.a.y(),
                            pm.b.x(), pm.b.y(), pm.score, t.scored() ? t.error_px : std::nan(""),

@@ -228,12 +228,11 @@ std::pair<int, int> write_point_files(const diachron::Scene& scene, int count, c
       if (f) std::fclose(f);
     throw diachron::Error("make_scene: cannot write " + control_path + " or " + check_path);
   }
-  for (const char* what : {"control", "check"}) {
-    std::FILE* out = files[what[1] == 'h' ? 1 : 0];
-    std::fprintf(out, "# make_scene: check points of the scene as %s points of %s against %s (positions in %s's\n"
-                      "# frame, its units; true pixels, diachron convention). io/control_points.hpp\n",
-                 what, first.name.c_str(), scene.epochs.back().name.c_str(), scene.epochs.back().name.c_str());
-  }
+  const char* kinds[2] = {"control", "check"};
+  for (int f = 0; f < 2; ++f)
+    std::fprintf(files[f], "# make_scene: check points of the scene as %s points of %s against %s (positions in %s's\n"
+                           "# frame, its units; true pixels, diachron convention). io/control_points.hpp\n",
+                 kinds[f], first.name.c_str(), scene.epochs.back().name.c_str(), scene.epochs.back().name.c_str());
   int written[2] = {0, 0};
   for (std::size_t k = 0; k < scene.check_points.size(); ++k) {
     const diachron::CheckPoint& cp = scene.check_points[k];

@@ -414,11 +414,12 @@ std::string adjustment_json(const CombinedAdjustmentResult& a, const std::vector
       o << "{\"used\": " << c.num_used << ", \"failed\": " << c.num_failed << ", \"rms_3d\": "
         << json_number_or_null(c.rms_3d_m);
       const char* axis[3] = {"x", "y", "z"};
-      for (int k = 0; k < 3; ++k)
-        o << ", \"" << axis[k] << "\": {\"mean\": " << json_number_or_null(c.axes_m[static_cast<std::size_t>(k)].mean)
-          << ", \"sigma\": " << json_number_or_null(c.axes_m[static_cast<std::size_t>(k)].sigma)
-          << ", \"mean_abs\": " << json_number_or_null(c.axes_m[static_cast<std::size_t>(k)].mean_abs)
-          << ", \"rms\": " << json_number_or_null(c.axes_m[static_cast<std::size_t>(k)].rms) << "}";
+      for (std::size_t k = 0; k < 3; ++k) {
+        const ErrorStatistics& e = c.axes_m[k];
+        o << ", \"" << axis[k] << "\": {\"mean\": " << json_number_or_null(e.mean) << ", \"sigma\": "
+          << json_number_or_null(e.sigma) << ", \"mean_abs\": " << json_number_or_null(e.mean_abs)
+          << ", \"rms\": " << json_number_or_null(e.rms) << "}";
+      }
       o << "}";
     };
     o << "{\"rough\": ";
@@ -798,8 +799,9 @@ int main(int argc, char** argv) {
         epoch1.fixed_intrinsics = held;
         adjustment_options.bundle.epochs = {epoch1, EpochFreedom::all_fixed()};  // the stage's default, K's held
       }
+      const CombinedEpoch combined1 = combined_epoch(e1, one_camera);
       const CombinedAdjustmentResult adjusted =
-          combined_adjustment(combined_epoch(e1, one_camera), combined_epoch(e2, false),
+          combined_adjustment(combined1, combined_epoch(e2, false),
                               epoch_pair_matches(precise.pairs), rough.epoch2_from_epoch1, adjustment_options,
                               control_points);
       std::vector<std::string> names;
@@ -823,7 +825,7 @@ int main(int argc, char** argv) {
       std::optional<std::pair<CheckPointReport, CheckPointReport>> checked;
       if (!check_records.empty()) {
         const std::vector<Frame<FraserAffine>> moved =
-            transformed_frames(combined_epoch(e1, one_camera).frames, rough.epoch2_from_epoch1);
+            transformed_frames(combined1.frames, rough.epoch2_from_epoch1);
         checked.emplace(evaluate_check_points(check_points, FrameTriangulator<FraserAffine>(moved)),
                         r.success ? evaluate_check_points(check_points, FrameTriangulator<FraserAffine>(adjusted.epoch1))
                                   : CheckPointReport{});

@@ -81,12 +81,16 @@ Helmert3 rough_helmert(const Scene& s) {
 }
 
 // RMS distance (epoch-2 units) between the check points triangulated from their true epoch-1
-// pixels with `frames` (epoch-2 frame) and their true epoch-2 positions.
-double check_point_rms(const Scene& s, const std::vector<Frame<FraserAffine>>& frames, int* used = nullptr) {
+// pixels with `frames` (epoch-2 frame) and their true epoch-2 positions; the check points whose
+// indices are in `skip` left out.
+double check_point_rms(const Scene& s, const std::vector<Frame<FraserAffine>>& frames, int* used = nullptr,
+                       const std::vector<std::size_t>& skip = {}) {
   const Helmert3 e2_from_world = s.epochs[1].epoch_from_world();
   double sum = 0.0;
   int n = 0;
-  for (const CheckPoint& cp : s.check_points) {
+  for (std::size_t k = 0; k < s.check_points.size(); ++k) {
+    if (std::find(skip.begin(), skip.end(), k) != skip.end()) continue;
+    const CheckPoint& cp = s.check_points[k];
     Track t;
     for (const auto& o : cp.observations)
       if (o.epoch == 0) t.observations.push_back({o.image, o.pixel, ObservationKind::intra_epoch});
@@ -354,24 +358,12 @@ std::vector<CombinedControlPoint> control_points_from_check_points(const Scene& 
   return out;
 }
 
-// check_point_rms over the check points not used as control points.
+// check_point_rms over the check points not used as control points; infinite below 10 of them.
 double other_check_point_rms(const Scene& s, const std::vector<Frame<FraserAffine>>& frames,
                              const std::vector<std::size_t>& taken) {
-  const Helmert3 e2_from_world = s.epochs[1].epoch_from_world();
-  double sum = 0.0;
-  int n = 0;
-  for (std::size_t k = 0; k < s.check_points.size(); ++k) {
-    if (std::find(taken.begin(), taken.end(), k) != taken.end()) continue;
-    Track t;
-    for (const auto& o : s.check_points[k].observations)
-      if (o.epoch == 0) t.observations.push_back({o.image, o.pixel, ObservationKind::intra_epoch});
-    if (t.observations.size() < 2) continue;
-    const TriangulationResult r = triangulate_track(frames, t);
-    if (!r.success) continue;
-    sum += (r.point - e2_from_world(s.check_points[k].world)).squaredNorm();
-    ++n;
-  }
-  return n >= 10 ? std::sqrt(sum / n) : std::numeric_limits<double>::infinity();
+  int used = 0;
+  const double rms = check_point_rms(s, frames, &used, taken);
+  return used >= 10 ? rms : std::numeric_limits<double>::infinity();
 }
 
 }  // namespace

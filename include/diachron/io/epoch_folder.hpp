@@ -16,14 +16,13 @@
 #include <utility>
 #include <vector>
 
-#include <sys/stat.h>
-
 #include <diachron/camera/camera.hpp>
 #include <diachron/camera/distortion.hpp>
 #include <diachron/camera/frame.hpp>
 #include <diachron/core/error.hpp>
 #include <diachron/core/raster.hpp>
 #include <diachron/io/colmap_text.hpp>
+#include <diachron/io/folders.hpp>
 #include <diachron/io/geotiff.hpp>
 #include <diachron/io/grey_image.hpp>
 #include <diachron/terrain/dsm.hpp>
@@ -104,8 +103,7 @@ struct EpochFolder {
 /// diachron::Error naming the file (and line) when the folder, a file or an image is missing, a file
 /// cannot be parsed, a camera model has no diachron counterpart, or the DSM has no valid cell.
 inline EpochFolder read_epoch_folder(const std::string& directory, const GeoTiffReadOptions& dsm_options = {}) {
-  struct stat info {};
-  DIACHRON_CHECK(!directory.empty() && ::stat(directory.c_str(), &info) == 0 && S_ISDIR(info.st_mode),
+  DIACHRON_CHECK(!directory.empty() && is_folder(directory),
                  "epoch folder '" << directory << "' does not exist or is not a folder");
   EpochFolder out;
   out.directory = directory;
@@ -118,7 +116,7 @@ inline EpochFolder read_epoch_folder(const std::string& directory, const GeoTiff
     image.id = id;
     image.name = colmap_image.name;
     image.path = directory + "/images/" + colmap_image.name;
-    DIACHRON_CHECK(::stat(image.path.c_str(), &info) == 0 && S_ISREG(info.st_mode),
+    DIACHRON_CHECK(is_regular_file(image.path),
                    "epoch folder '" << directory << "': image '" << colmap_image.name << "' (id " << id
                                     << " in images.txt) is missing from images/");
     const std::string colmap_mask = directory + "/masks/" + colmap_image.name + ".png";
@@ -127,7 +125,7 @@ inline EpochFolder read_epoch_folder(const std::string& directory, const GeoTiff
     const std::string micmac_mask =
         (dot != std::string::npos && dot > slash ? image.path.substr(0, dot) : image.path) + "_Masq.tif";
     for (const std::string& candidate : {colmap_mask, micmac_mask})
-      if (image.mask_path.empty() && ::stat(candidate.c_str(), &info) == 0 && S_ISREG(info.st_mode))
+      if (image.mask_path.empty() && is_regular_file(candidate))
         image.mask_path = candidate;
     const ColmapCamera& colmap_camera = out.model.cameras.at(colmap_image.camera_id);  // check()ed by the reader
     const ConversionResult<Camera<FraserAffine>> camera = camera_from_colmap(colmap_camera);
