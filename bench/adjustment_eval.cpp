@@ -46,7 +46,7 @@
 //   adjustment_eval [--seeds N] [--first-seed S] [--threads N] [--no-colmap] [--colmap-work DIR]
 //                   [--max-relief G] [--cell PX] [--e1-block RxC] [--e1-ties N] [--e2-block RxC]
 //                   [--matches-cache DIR] [--affine-step PX] [--inter-sigma PX] [--e2-scale K]
-//                   [--ground-floor G] [--sharpen A,S]
+//                   [--ground-floor G] [--sharpen A,S] [--dem PATH] [--flying-height M]
 //
 // --max-relief G: precise matching skips master points whose ground is not locally a plane to G
 // secondary GSD (PreciseCorrelationOptions::max_relief_gsd; default off, as match_epochs).
@@ -74,6 +74,9 @@
 // --affine-step PX: the correlation's local-affine step (CorrelationMatchOptions::affine_step_px;
 // default 1 px, 0 = half the window).
 // --inter-sigma PX: the inter-epoch weight of the variant "inter sigma X" (px, > 0; default 3).
+// --dem PATH: the scenes over this real DEM instead of the procedural relief (bench/real_terrain.hpp;
+// a DEM in degrees goes to its UTM zone first). --flying-height M: every epoch M metres above the mean
+// ground at the preset's GSDs (default 1056), for rugged terrain.
 //
 // Prints one line per seed and variant on stderr (with the solve's final Ceres cost, sigma0 and
 // observations, from which nested variants can be compared by an F-test) and a Markdown table
@@ -84,6 +87,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <map>
 #include <optional>
@@ -116,6 +120,7 @@
 
 #include "match_scoring.hpp"
 #include "peak_shape.hpp"
+#include "real_terrain.hpp"
 #include "peers/colmap_bundle_adjuster.hpp"
 
 using namespace diachron;
@@ -372,6 +377,8 @@ int run(int argc, char** argv) {
   double e2_scale = 1.0;
   double ground_floor = -1.0;  // < 0: the library's default
   UnsharpMaskOptions sharpen;
+  std::string dem_path;
+  double flying_height = 0.0;  // 0: the preset's
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     const auto value = [&]() -> std::string {
@@ -388,6 +395,11 @@ int run(int argc, char** argv) {
     else if (a == "--e1-block") e1_block = BlockSize::parse(a, value());
     else if (a == "--e2-block") e2_block = BlockSize::parse(a, value());
     else if (a == "--matches-cache") matches_cache = value();
+    else if (a == "--dem") dem_path = value();
+    else if (a == "--flying-height") {
+      flying_height = std::stod(value());
+      if (!(flying_height > 0.0) || !std::isfinite(flying_height)) throw std::runtime_error("--flying-height needs a height > 0 m");
+    }
     else if (a == "--affine-step") affine_step = std::stod(value());
     else if (a == "--inter-sigma") {
       inter_sigma = std::stod(value());
@@ -412,12 +424,14 @@ int run(int argc, char** argv) {
     } else {
       std::fprintf(stderr,
                    "usage: adjustment_eval [--seeds N] [--first-seed S] [--threads N] [--no-colmap] [--colmap-work DIR] "
-                   "[--max-relief G] [--cell PX] [--e1-block RxC] [--e1-ties N] [--e2-block RxC] [--matches-cache DIR] [--affine-step PX] [--inter-sigma PX] [--e2-scale K] [--ground-floor G] [--sharpen A,S]\n");
+                   "[--max-relief G] [--cell PX] [--e1-block RxC] [--e1-ties N] [--e2-block RxC] [--matches-cache DIR] [--affine-step PX] [--inter-sigma PX] [--e2-scale K] [--ground-floor G] [--sharpen A,S] [--dem PATH] [--flying-height M]\n");
       return 1;
     }
   }
   if (colmap) make_folder(colmap_work, "adjustment_eval");  // run_colmap_bundle_adjuster makes one level below it
   if (!matches_cache.empty()) make_folder(matches_cache, "adjustment_eval");
+  std::optional<Dsm> dem;
+  if (!dem_path.empty()) dem = bench::read_terrain_dem(dem_path);
   std::map<std::string, std::vector<Outcome>> results;
   std::vector<double> inter_matches, inter_correct;
   int coregistered = 0;
@@ -429,6 +443,8 @@ int run(int argc, char** argv) {
     e2_block.apply(scene_options.epochs[1]);
     if (e1_ties >= 0) scene_options.epochs[0].tie_points = e1_ties;
     scale_images(scene_options.epochs[1], e2_scale);
+    if (flying_height > 0.0) bench::set_flying_height(scene_options, flying_height);
+    scene_options.real_dem = dem;
     auto t0 = std::chrono::steady_clock::now();
     const Scene scene = generate_scene(scene_options);
     const SyntheticEpoch& e1 = scene.epochs[0];
@@ -469,6 +485,8 @@ int run(int argc, char** argv) {
     std::string optional_keys;
     if (e2_scale != 1.0) optional_keys += "-e2x" + std::to_string(e2_scale);
     if (ground_floor >= 0.0) optional_keys += "-floor" + std::to_string(ground_floor);
+    if (!dem_path.empty()) optional_keys += "-dem" + std::filesystem::path(dem_path).stem().string();
+    if (flying_height > 0.0) optional_keys += "-height" + std::to_string(flying_height);
     if (sharpen.enabled())
       optional_keys += "-sharpen" + std::to_string(sharpen.amount) + "," + std::to_string(sharpen.sigma_px);
     char cache_name[200];

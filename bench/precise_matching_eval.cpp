@@ -9,7 +9,7 @@
 //                         [--ncc-correlation] [--calm] [--calm-only changes,sun,cover,film,...]
 //                         [--max-relief G] [--relief-radius PX] [--preblur S1,S2] [--dump FILE]
 //                         [--affine-step PX] [--scan-scale K] [--e2-scale K] [--sharpen A,S]
-//                         [--scan-frame PX [--no-masks]]
+//                         [--scan-frame PX [--no-masks]] [--dem PATH] [--flying-height M]
 //
 // --calm (a diagnostic): the same scenes without their decades, i.e. no landscape change between
 // the epochs and epoch 1 rendered with epoch 2's look (sun, land-cover response, no film defects);
@@ -26,6 +26,9 @@
 // --scan-scale), widening the resolution gap between the epochs from the preset's 2 to 2 K.
 // --scan-frame PX draws a scan's film frame, a band of PX px (synth/scan_frame.hpp), over epoch 1's
 // images and hands their masks to precise matching; --no-masks keeps the frame but not the masks.
+// --dem PATH generates the scenes over this real DEM instead of the procedural relief
+// (bench/real_terrain.hpp; a DEM in degrees goes to its UTM zone first); --flying-height M flies every
+// epoch M metres above the mean ground at the preset's GSDs (default 1056), for rugged terrain.
 // --dump FILE writes every final match of the methods run: positions, score, true error
 // and its vector (epoch-2 px, NaN when the truth cannot decide), the truth's status, its residual
 // to the rough transfer's prediction, the correlation surface's second derivatives at the match
@@ -54,6 +57,7 @@
 #include <cstdlib>
 #include <map>
 #include <memory>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -75,6 +79,7 @@
 
 #include "match_scoring.hpp"
 #include "peak_shape.hpp"
+#include "real_terrain.hpp"
 
 #ifndef DIACHRON_BENCH_MODELS_DIR
 #define DIACHRON_BENCH_MODELS_DIR ""
@@ -114,6 +119,8 @@ struct Arguments {
   UnsharpMaskOptions sharpen;
   int scan_frame = 0;
   bool no_masks = false;
+  std::string dem;
+  double flying_height = 0.0;  // 0: the preset's
 };
 
 Arguments parse(int argc, char** argv) {
@@ -185,6 +192,14 @@ Arguments parse(int argc, char** argv) {
         std::exit(1);
       }
     } else if (s == "--no-masks") a.no_masks = true;
+    else if (s == "--dem") a.dem = value();
+    else if (s == "--flying-height") {
+      a.flying_height = std::stod(value());
+      if (!(a.flying_height > 0.0) || !std::isfinite(a.flying_height)) {
+        std::fprintf(stderr, "--flying-height wants a height > 0 m\n");
+        std::exit(1);
+      }
+    }
     else if (s == "--sharpen") {
       if (std::sscanf(value().c_str(), "%lf,%lf", &a.sharpen.amount, &a.sharpen.sigma_px) != 2) {
         std::fprintf(stderr, "--sharpen wants A,S (amount, sigma in master px)\n");
@@ -324,6 +339,8 @@ int main(int argc, char** argv) {
     if (args.no_ncc) options.use_ncc = false;
     if (args.ncc_correlation) options.correlation.use_ncc = true;
     if (args.no_refine) options.ncc.refine = false;
+    std::optional<Dsm> dem;
+    if (!args.dem.empty()) dem = bench::read_terrain_dem(args.dem);
 
     std::printf("precise_matching_eval: %d decades seeds from %llu, methods", args.seeds,
                 static_cast<unsigned long long>(args.first_seed));
@@ -380,6 +397,8 @@ int main(int argc, char** argv) {
       }
       for (std::size_t e = 0; e < scene_options.epochs.size(); ++e)
         scale_images(scene_options.epochs[e], args.scan_scale * (e == 1 ? args.e2_scale : 1.0));
+      if (args.flying_height > 0.0) bench::set_flying_height(scene_options, args.flying_height);
+      scene_options.real_dem = dem;
       auto t0 = std::chrono::steady_clock::now();
       Scene scene = generate_scene(scene_options);
       // Epoch 1's scans with their film frame; its masks are handed over unless --no-masks.

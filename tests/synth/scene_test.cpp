@@ -439,6 +439,18 @@ TEST_CASE("a real DEM as terrain", "[synth]") {
       REQUIRE(hit.success);
       CHECK((hit.point - cp.world).norm() < 1e-3);
     }
+
+  // A flight longer than the DEM is refused, and the message gives both extents to compare.
+  for (EpochOptions& e : options.epochs) e.columns = 12;
+  try {
+    generate_scene(options);
+    FAIL("a scene beyond the DEM was generated");
+  } catch (const Error& error) {
+    const std::string what = error.what();
+    CHECK(what.find("does not cover the scene") != std::string::npos);
+    CHECK(what.find("the DEM has X [") != std::string::npos);
+    CHECK(what.find("the scene needs X [") != std::string::npos);
+  }
 #endif
 }
 

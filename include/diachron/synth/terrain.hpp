@@ -12,6 +12,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <iomanip>
 #include <limits>
 #include <optional>
 #include <string>
@@ -544,14 +545,20 @@ inline Landscape make_landscape(const TerrainOptions& options, const ChangeOptio
     Raster<float> filled = real_dem->heights();
     detail::fill_dem_holes(filled);
     const Dsm dem(std::move(filled), real_dem->transform(), real_dem->crs());
+    const WorldBounds dem_box = dem.bounds();
     crs = real_dem->crs();
     for (int y = 0; y < h; ++y)
       for (int x = 0; x < w; ++x) {
         const Vec2 xy = transform.pixel_to_world(Vec2(x, y));
         const double z = dem.height_at(xy);
-        DIACHRON_CHECK(std::isfinite(z), "make_landscape: the real DEM does not cover the scene at ("
-                                             << xy.x() << ", " << xy.y()
-                                             << "); lower the flying height or use fewer images");
+        DIACHRON_CHECK(std::isfinite(z), std::fixed << std::setprecision(1)
+                                             << "make_landscape: the real DEM does not cover the scene at ("
+                                             << xy.x() << ", " << xy.y() << "): the scene needs X ["
+                                             << bounds.min_x << ", " << bounds.max_x << "] Y [" << bounds.min_y
+                                             << ", " << bounds.max_y << "], the DEM has X [" << dem_box.min_x << ", "
+                                             << dem_box.max_x << "] Y [" << dem_box.min_y << ", " << dem_box.max_y
+                                             << "] (the footprints are taken at the DEM's lowest height); use "
+                                                "smaller or fewer images, or a higher flight at the same GSD");
         heights(x, y) = static_cast<float>(z);
       }
   } else {
