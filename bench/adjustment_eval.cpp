@@ -76,7 +76,8 @@
 // --inter-sigma PX: the inter-epoch weight of the variant "inter sigma X" (px, > 0; default 3).
 // --dem PATH: the scenes over this real DEM instead of the procedural relief (bench/real_terrain.hpp;
 // a DEM in degrees goes to its UTM zone first). --flying-height M: every epoch M metres above the mean
-// ground at the preset's GSDs (default 1056), for rugged terrain.
+// ground at the preset's GSDs (the preset: 1056 m for epoch 1, 840 m for epoch 2), for rugged
+// terrain.
 //
 // Prints one line per seed and variant on stderr (with the solve's final Ceres cost, sigma0 and
 // observations, from which nested variants can be compared by an F-test) and a Markdown table

@@ -28,7 +28,8 @@
 // images and hands their masks to precise matching; --no-masks keeps the frame but not the masks.
 // --dem PATH generates the scenes over this real DEM instead of the procedural relief
 // (bench/real_terrain.hpp; a DEM in degrees goes to its UTM zone first); --flying-height M flies every
-// epoch M metres above the mean ground at the preset's GSDs (default 1056), for rugged terrain.
+// epoch M metres above the mean ground at the preset's GSDs (the preset: 1056 m for epoch 1, 840 m for
+// epoch 2), for rugged terrain.
 // --dump FILE writes every final match of the methods run: positions, score, true error
 // and its vector (epoch-2 px, NaN when the truth cannot decide), the truth's status, its residual
 // to the rough transfer's prediction, the correlation surface's second derivatives at the match

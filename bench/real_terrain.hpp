@@ -18,7 +18,8 @@ namespace diachron::bench {
 
 /// The DEM at `path` as scene terrain, in metres: a DEM in degrees (SRTM and the like) is
 /// reprojected to its UTM zone first, since cells in degrees under heights in metres would make a
-/// flat, stretched world. Files without a nodata tag take the usual -9999 / -32768 as holes.
+/// flat, stretched world. A file without a nodata tag has its -9999 samples taken as holes
+/// (GeoTiffReadOptions::assume_untagged_nodata, for the merged Mount St. Helens DEMs).
 inline Dsm read_terrain_dem(const std::string& path) {
   GeoTiffReadOptions read;
   read.assume_untagged_nodata = true;
@@ -33,8 +34,9 @@ inline Dsm read_terrain_dem(const std::string& path) {
 
 /// Every epoch of `options` flown `height_m` above the mean ground, each keeping its GSD (the focal
 /// length follows the height), as `make_scene --flying-height`. Rugged real terrain needs a higher
-/// flight than the preset's 1056 m for the cameras to stay above it and the stereo overlap to hold
-/// on the summits. Throws std::invalid_argument for a height that is not finite and > 0.
+/// flight than the preset's (1056 and 840 m) for the cameras to stay above it and the stereo
+/// overlap to hold on the summits. Throws std::invalid_argument for a height that is not finite
+/// and > 0.
 inline void set_flying_height(SceneOptions& options, double height_m) {
   if (!(height_m > 0.0) || !std::isfinite(height_m))
     throw std::invalid_argument("the flying height must be finite and > 0 m");
