@@ -74,7 +74,7 @@
 // --affine-step PX: the correlation's local-affine step (CorrelationMatchOptions::affine_step_px;
 // default 1 px, 0 = half the window).
 // --inter-sigma PX: the inter-epoch weight of the variant "inter sigma X" (px, > 0; default 3).
-// --dem PATH: the scenes over this real DEM instead of the procedural relief (bench/real_terrain.hpp;
+// --dem PATH: the scenes over this real DEM instead of the procedural relief (dsm_in_metres:
 // a DEM in degrees goes to its UTM zone first). --flying-height M: every epoch M metres above the mean
 // ground at the preset's GSDs (the preset: 1056 m for epoch 1, 840 m for epoch 2), for rugged
 // terrain.
@@ -106,6 +106,7 @@
 #include <diachron/eval/distortion_precision.hpp>
 #include <diachron/eval/dod.hpp>
 #include <diachron/eval/match_truth.hpp>
+#include <diachron/io/dsm_reproject.hpp>
 #include <diachron/eval/scene_check_points.hpp>
 #include <diachron/geometry/procrustes.hpp>
 #include <diachron/io/cameras_json.hpp>
@@ -121,7 +122,6 @@
 
 #include "match_scoring.hpp"
 #include "peak_shape.hpp"
-#include "real_terrain.hpp"
 #include "peers/colmap_bundle_adjuster.hpp"
 
 using namespace diachron;
@@ -432,7 +432,13 @@ int run(int argc, char** argv) {
   if (colmap) make_folder(colmap_work, "adjustment_eval");  // run_colmap_bundle_adjuster makes one level below it
   if (!matches_cache.empty()) make_folder(matches_cache, "adjustment_eval");
   std::optional<Dsm> dem;
-  if (!dem_path.empty()) dem = bench::read_terrain_dem(dem_path);
+  if (!dem_path.empty()) {
+    GeoTiffReadOptions untagged;  // the merged Mount St. Helens DEMs use -9999 without a tag
+    untagged.assume_untagged_nodata = true;
+    std::string utm;
+    dem = dsm_in_metres(read_geotiff_dsm(dem_path, untagged), &utm);
+    if (!utm.empty()) std::fprintf(stderr, "%s is in degrees; reprojected to %s\n", dem_path.c_str(), utm.c_str());
+  }
   std::map<std::string, std::vector<Outcome>> results;
   std::vector<double> inter_matches, inter_correct;
   int coregistered = 0;
@@ -444,7 +450,8 @@ int run(int argc, char** argv) {
     e2_block.apply(scene_options.epochs[1]);
     if (e1_ties >= 0) scene_options.epochs[0].tie_points = e1_ties;
     scale_images(scene_options.epochs[1], e2_scale);
-    if (flying_height > 0.0) bench::set_flying_height(scene_options, flying_height);
+    if (flying_height > 0.0)
+      for (EpochOptions& epoch : scene_options.epochs) epoch.set_flying_height_keeping_gsd(flying_height);
     scene_options.real_dem = dem;
     auto t0 = std::chrono::steady_clock::now();
     const Scene scene = generate_scene(scene_options);
@@ -610,16 +617,18 @@ int run(int argc, char** argv) {
         sum_kind[kind[k]] += m.b - t.true_pixel;
         ++n_kind[kind[k]];
       }
+      const auto mean = [](const Vec2& sum, int n) { return n > 0 ? Vec2(sum / n) : Vec2(Vec2::Zero()); };
+      const Vec2 bias_all = mean(sum_all, n_all), bias_kind[2] = {mean(sum_kind[0], n_kind[0]), mean(sum_kind[1], n_kind[1])};
       EpochPairMatches by_pair{pair.master, pair.secondary, {}}, by_kind{pair.master, pair.secondary, {}};
       for (std::size_t k = 0; k < pair.matches.size(); ++k) {
         PointMatch a = pair.matches[k], b = pair.matches[k];
-        if (n_all > 0) a.b -= sum_all / n_all;
-        if (n_kind[kind[k]] > 0) b.b -= sum_kind[kind[k]] / n_kind[kind[k]];
+        a.b -= bias_all;
+        b.b -= bias_kind[kind[k]];
         by_pair.matches.push_back(a);
         by_kind.matches.push_back(b);
       }
-      const auto mean = [](const Vec2& sum, int n) { return n > 0 ? Vec2(sum / n) : Vec2(Vec2::Zero()); };
-      const Vec2 r = mean(sum_kind[1], n_kind[1]), f = mean(sum_kind[0], n_kind[0]);
+      const Vec2& r = bias_kind[1];
+      const Vec2& f = bias_kind[0];
       std::fprintf(stderr, "    pair %zu-%zu: mean error of the correct matches on relief (%d) (%.2f, %.2f), elsewhere (%d) (%.2f, %.2f) px\n",
                    pair.master, pair.secondary, n_kind[1], r.x(), r.y(), n_kind[0], f.x(), f.y());
       pair_debiased.push_back(std::move(by_pair));

@@ -27,7 +27,7 @@
 // --scan-frame PX draws a scan's film frame, a band of PX px (synth/scan_frame.hpp), over epoch 1's
 // images and hands their masks to precise matching; --no-masks keeps the frame but not the masks.
 // --dem PATH generates the scenes over this real DEM instead of the procedural relief
-// (bench/real_terrain.hpp; a DEM in degrees goes to its UTM zone first); --flying-height M flies every
+// (dsm_in_metres: a DEM in degrees goes to its UTM zone first); --flying-height M flies every
 // epoch M metres above the mean ground at the preset's GSDs (the preset: 1056 m for epoch 1, 840 m for
 // epoch 2), for rugged terrain.
 // --dump FILE writes every final match of the methods run: positions, score, true error
@@ -67,6 +67,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include <diachron/eval/match_truth.hpp>
+#include <diachron/io/dsm_reproject.hpp>
 #include <diachron/pipeline/overlapping_pairs.hpp>
 #include <diachron/pipeline/precise_matching.hpp>
 #include <diachron/pipeline/rough_coregistration.hpp>
@@ -80,7 +81,6 @@
 
 #include "match_scoring.hpp"
 #include "peak_shape.hpp"
-#include "real_terrain.hpp"
 
 #ifndef DIACHRON_BENCH_MODELS_DIR
 #define DIACHRON_BENCH_MODELS_DIR ""
@@ -341,7 +341,13 @@ int main(int argc, char** argv) {
     if (args.ncc_correlation) options.correlation.use_ncc = true;
     if (args.no_refine) options.ncc.refine = false;
     std::optional<Dsm> dem;
-    if (!args.dem.empty()) dem = bench::read_terrain_dem(args.dem);
+    if (!args.dem.empty()) {
+      GeoTiffReadOptions untagged;  // the merged Mount St. Helens DEMs use -9999 without a tag
+      untagged.assume_untagged_nodata = true;
+      std::string utm;
+      dem = dsm_in_metres(read_geotiff_dsm(args.dem, untagged), &utm);
+      if (!utm.empty()) std::fprintf(stderr, "%s is in degrees; reprojected to %s\n", args.dem.c_str(), utm.c_str());
+    }
 
     std::printf("precise_matching_eval: %d decades seeds from %llu, methods", args.seeds,
                 static_cast<unsigned long long>(args.first_seed));
@@ -398,7 +404,8 @@ int main(int argc, char** argv) {
       }
       for (std::size_t e = 0; e < scene_options.epochs.size(); ++e)
         scale_images(scene_options.epochs[e], args.scan_scale * (e == 1 ? args.e2_scale : 1.0));
-      if (args.flying_height > 0.0) bench::set_flying_height(scene_options, args.flying_height);
+      if (args.flying_height > 0.0)
+        for (EpochOptions& epoch : scene_options.epochs) epoch.set_flying_height_keeping_gsd(args.flying_height);
       scene_options.real_dem = dem;
       auto t0 = std::chrono::steady_clock::now();
       Scene scene = generate_scene(scene_options);

@@ -30,7 +30,6 @@
 #include <diachron/io/geotiff.hpp>
 #include <diachron/synth/scan_frame.hpp>
 #include <diachron/synth/scene.hpp>
-#include <diachron/terrain/crs_kind.hpp>
 #include <diachron/synth/scene_io.hpp>
 
 namespace {
@@ -204,11 +203,7 @@ diachron::SceneOptions scene_options(const Arguments& args) {
       epoch.image_height_px = args.size->second;
     }
     if (args.dome) epoch.dsm.dome_m = *args.dome;
-    if (args.flying_height) {
-      // Keep the ground sampling distance of the preset: the focal length follows the height.
-      epoch.focal_px *= *args.flying_height / epoch.flying_height_m;
-      epoch.flying_height_m = *args.flying_height;
-    }
+    if (args.flying_height) epoch.set_flying_height_keeping_gsd(*args.flying_height);
   }
   return options;
 }
@@ -263,14 +258,12 @@ int main(int argc, char** argv) {
     if (args.dem) {
       diachron::GeoTiffReadOptions read;
       read.assume_untagged_nodata = true;
-      options.real_dem = diachron::read_geotiff_dsm(*args.dem, read);
       // Cells in degrees under heights in metres would make a flat, stretched world: the terrain
       // goes to metres first.
-      if (diachron::crs_kind(options.real_dem->crs()) == diachron::CrsKind::geographic) {
-        const std::string utm = diachron::utm_crs_of(*options.real_dem);
+      std::string utm;
+      options.real_dem = diachron::dsm_in_metres(diachron::read_geotiff_dsm(*args.dem, read), &utm);
+      if (!utm.empty())
         std::fprintf(stderr, "make_scene: %s is in degrees; reprojected to %s\n", args.dem->c_str(), utm.c_str());
-        options.real_dem = diachron::reproject_dsm(*options.real_dem, utm);
-      }
     }
 
     const auto t0 = std::chrono::steady_clock::now();

@@ -127,6 +127,30 @@ TEST_CASE("reproject_dsm: a geographic DSM in metres, heights and holes where th
   CHECK(holes > 10);
 }
 
+TEST_CASE("dsm_in_metres warps a DSM in degrees to its UTM zone and leaves a projected one alone", "[io][crs]") {
+  const Dsm input = geographic_dsm();
+  std::string utm = "not cleared";
+  const Dsm out = diachron::dsm_in_metres(input, &utm);
+  CHECK(utm == "EPSG:32633");
+  const Dsm direct = diachron::reproject_dsm(input, "EPSG:32633");
+  CHECK(out.crs() == direct.crs());
+  CHECK(out.transform().c == direct.transform().c);
+  REQUIRE(out.width() == direct.width());
+  REQUIRE(out.height() == direct.height());
+  int same = 0;
+  for (int y = 0; y < out.height(); ++y)
+    for (int x = 0; x < out.width(); ++x)
+      same += (out.valid(x, y) == direct.valid(x, y)) && (!out.valid(x, y) || out.heights()(x, y) == direct.heights()(x, y));
+  CHECK(same == out.width() * out.height());
+
+  // Already in metres: returned as it is, nothing named.
+  const Dsm again = diachron::dsm_in_metres(out, &utm);
+  CHECK(utm.empty());
+  CHECK(again.crs() == out.crs());
+  CHECK(again.transform().c == out.transform().c);
+  CHECK(diachron::dsm_in_metres(out).width() == out.width());
+}
+
 TEST_CASE("reproject_dsm: bad input throws diachron::Error", "[io][crs]") {
   const Dsm input = geographic_dsm();
   CHECK_THROWS_AS(diachron::reproject_dsm(Dsm(input.heights(), input.transform()), "EPSG:32633"), diachron::Error);

@@ -472,4 +472,18 @@ TEST_CASE("invalid options are rejected with a message", "[synth]") {
   options.epochs[0].flying_height_m = 5.0;
   options.epochs[0].focal_px = 5.0;
   CHECK_THROWS_AS(generate_scene(options), Error);
+  // A flying height that is not a height.
+  CHECK_THROWS_AS(options.epochs[0].set_flying_height_keeping_gsd(0.0), Error);
+  CHECK_THROWS_AS(options.epochs[0].set_flying_height_keeping_gsd(std::nan("")), Error);
+}
+
+TEST_CASE("set_flying_height_keeping_gsd: the focal length follows the height", "[synth]") {
+  EpochOptions e = EpochOptions::historical();
+  const double gsd = e.gsd_m();
+  const int width = e.image_width_px;
+  e.set_flying_height_keeping_gsd(3 * e.flying_height_m);
+  CHECK(e.flying_height_m == Approx(3 * EpochOptions::historical().flying_height_m));
+  CHECK(e.focal_px == Approx(3 * EpochOptions::historical().focal_px));
+  CHECK(e.gsd_m() == Approx(gsd));
+  CHECK(e.image_width_px == width);
 }

@@ -1,8 +1,8 @@
 #pragma once
 /// @file
 /// reproject_dsm(): a DSM warped into another CRS through GDAL (gdalwarp's engine, in memory), and
-/// utm_crs_of(): the WGS 84 UTM zone of a DSM's centre. Part of diachron::io: include it only from
-/// code that links GDAL.
+/// utm_crs_of(): the WGS 84 UTM zone of a DSM's centre, dsm_in_metres(): both, for a DSM in degrees.
+/// Part of diachron::io: include it only from code that links GDAL.
 ///
 /// Why: the rough co-registration fits a 3D similarity and so needs the same unit on all three
 /// axes, which a DSM in a geographic CRS (SRTM, Copernicus DEM, ASTER: degrees, heights in metres)
@@ -26,6 +26,7 @@
 #include <diachron/core/geo_transform.hpp>
 #include <diachron/core/raster.hpp>
 #include <diachron/io/geotiff.hpp>
+#include <diachron/terrain/crs_kind.hpp>
 #include <diachron/terrain/dsm.hpp>
 
 namespace diachron {
@@ -170,6 +171,19 @@ inline Dsm reproject_dsm(const Dsm& dsm, const std::string& target_crs, const Ds
                                                     nullptr) == CE_None,
                  "reproject_dsm: cannot read the output" << detail::QuietGdalErrors::last_message());
   return Dsm(std::move(heights), out_gt, wkt);
+}
+
+/// `dsm` with its cells in metres: a DSM in a geographic CRS (degrees, e.g. SRTM) is warped to the
+/// UTM zone of its centre (utm_crs_of, reproject_dsm), any other is returned as it is. For code
+/// that takes DEMs of any kind and needs one unit on all three axes (`make_scene --dem`, the
+/// benchmarks' `--dem`). `utm`, when given, receives the zone's code ("EPSG:326zz"), or "" when
+/// nothing was warped. Throws as utm_crs_of and reproject_dsm do.
+inline Dsm dsm_in_metres(Dsm dsm, std::string* utm = nullptr, const DsmReprojectOptions& options = {}) {
+  if (utm) utm->clear();
+  if (crs_kind(dsm.crs()) != CrsKind::geographic) return dsm;
+  const std::string zone = utm_crs_of(dsm);
+  if (utm) *utm = zone;
+  return reproject_dsm(dsm, zone, options);
 }
 
 }  // namespace diachron

@@ -245,7 +245,7 @@ inline CombinedAdjustmentResult combined_adjustment(const CombinedEpoch& epoch1,
   }
   TrackSet tracks = build_tracks(ties, links, n1 + n2, options.tracks);
   result.tracks = tracks.report;
-  input.tracks = tracks.tracks;
+  input.tracks = std::move(tracks.tracks);
   // Each control point is a track of its own, outside the union-find: its observations are
   // measured by hand, not matched, and must not merge with a tie point through a shared pixel.
   for (std::size_t k = 0; k < control_points.size(); ++k) {

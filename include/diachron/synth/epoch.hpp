@@ -173,6 +173,17 @@ struct EpochOptions {
   /// Ground sampling distance at the mean ground height, metres per pixel.
   double gsd_m() const { return flying_height_m / focal_px; }
 
+  /// Flies the epoch `height_m` above the mean ground at the same GSD: the focal length follows the
+  /// height (a longer lens higher up), so images and footprints keep their size while the relief's
+  /// displacement shrinks. Rugged real terrain needs it for the cameras to stay above the summits.
+  /// Throws diachron::Error for a height that is not finite and > 0.
+  void set_flying_height_keeping_gsd(double height_m) {
+    DIACHRON_CHECK(height_m > 0.0 && std::isfinite(height_m),
+                   "EpochOptions: the flying height must be finite and > 0 m, got " << height_m);
+    focal_px *= height_m / flying_height_m;
+    flying_height_m = height_m;
+  }
+
   /// An older epoch: wide-angle film, worn scan (gamma, low contrast, grain, scratches, dust).
   static EpochOptions historical(std::string epoch_name = "e1") {
     EpochOptions o;
