@@ -23,8 +23,14 @@
 // how many of them each margin would accept and how many of those are right; then the margins
 // themselves.
 //
+// --pair NAME=MASTER.tif,SECONDARY.tif (repeatable) replaces the built-in sources by the given DEM
+// pairs (paths relative to --data unless absolute): each case cuts windows with the drawn overlap
+// from the two DEMs' common footprint, as for the built-in sources; a DEM in degrees is first made
+// metric. E.g. the Mount St. Helens dates among themselves, whose dome grew between them.
+//
 // --tilt DEG sets the largest tilt between the frames (CoregistrationCaseOptions::tilt_max_deg, 2 by
-// default); the other draws of each case stay the same.
+// default); the other draws of each case stay the same. --scale MIN MAX and --rotation DEG narrow the
+// frames' scale (0.5-2) and rotation (0-360 degrees) the same way, to tell what a failure depends on.
 //
 // With --synthetic, the cases are instead synthetic two-epoch scenes (synth/): each epoch's DSM as
 // an SfM delivers it (own frame, noise, holes, changed buildings), truth epoch2_from_epoch1.
@@ -32,6 +38,7 @@
 //   rough_coregistration_eval [--data DIR] [--models DIR] [--cases N] [--overlap MIN MAX]
 //                             [--configs C1,C2,...] [--threads N] [--seed S] [--max-features N]
 //                             [--gaps F1,F2,...] [--only SOURCE] [--tilt DEG] [--null] [--verbose]
+//                             [--pair NAME=MASTER.tif,SECONDARY.tif ...] [--scale MIN MAX] [--rotation DEG]
 //
 // A configuration is IMAGE/MATCHER/TILING/ROTATIONS, e.g. relief/sift/tiles/rot:
 //   IMAGE     stretch2 stretch5 wallis2 wallis5 hillshade multihillshade slope relief
@@ -108,6 +115,21 @@ std::vector<Source> load_sources(const std::string& data) {
   return s;
 }
 
+// The --pair sources: "NAME=MASTER,SECONDARY", paths relative to `data` unless absolute.
+std::vector<Source> pair_sources(const std::string& data, const std::vector<std::string>& pairs) {
+  std::vector<Source> s;
+  for (const std::string& p : pairs) {
+    const std::size_t eq = p.find('='), comma = p.find(',', eq == std::string::npos ? 0 : eq);
+    DIACHRON_CHECK(eq != std::string::npos && eq > 0 && comma != std::string::npos && comma > eq + 1 &&
+                       comma + 1 < p.size(),
+                   "--pair wants NAME=MASTER.tif,SECONDARY.tif, got '" << p << "'");
+    const auto path = [&](const std::string& f) { return f.front() == '/' ? f : data + "/" + f; };
+    s.push_back({p.substr(0, eq), to_metric(read_geotiff_dsm(path(p.substr(eq + 1, comma - eq - 1)))),
+                 to_metric(read_geotiff_dsm(path(p.substr(comma + 1)))), true});
+  }
+  return s;
+}
+
 struct Config {
   std::string name;
   RoughCoregistrationOptions options;
@@ -172,6 +194,11 @@ Config parse_config(const std::string& text) {
   // minscoreS: the default with the fallback's DsmCorrelationSearchOptions::min_score at S (0.5).
   if (image.rfind("minscore", 0) == 0 && image.size() > 8) {
     o.correlation_search.min_score = std::stod(image.substr(8));
+    return c;
+  }
+  // norefine: the default without the surface refinement (RoughCoregistrationOptions::refine_surface).
+  if (image == "norefine") {
+    o.refine_surface = false;
     return c;
   }
   if (image == "noscale") {
@@ -301,7 +328,10 @@ int main(int argc, char** argv) {
   std::vector<int> gaps;  // resolution-gap factors; empty: no gap cases
   std::string only;       // run only the cases whose source name contains this (same seeds as the full run)
   std::string configs_text = "stretch2/sift/whole/norot,relief/sift/tiles/rot";
+  std::vector<std::string> pairs;  // --pair NAME=MASTER,SECONDARY
   double tilt_max_deg = CoregistrationCaseOptions{}.tilt_max_deg;
+  double scale_min = CoregistrationCaseOptions{}.scale_min, scale_max = CoregistrationCaseOptions{}.scale_max;
+  double rotation_max_deg = CoregistrationCaseOptions{}.rotation_max_deg;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto next = [&]() -> std::string {
@@ -324,6 +354,9 @@ int main(int argc, char** argv) {
     else if (a == "--synthetic") synthetic = true;
     else if (a == "--null") null_cases = true;
     else if (a == "--tilt") tilt_max_deg = std::stod(next());
+    else if (a == "--pair") pairs.push_back(next());
+    else if (a == "--scale") { scale_min = std::stod(next()); scale_max = std::stod(next()); }
+    else if (a == "--rotation") rotation_max_deg = std::stod(next());
     else if (a == "--gaps") {
       std::stringstream gs(next());
       for (std::string g; std::getline(gs, g, ',');) gaps.push_back(std::stoi(g));
@@ -331,12 +364,14 @@ int main(int argc, char** argv) {
     else {
       std::cerr << "usage: rough_coregistration_eval [--data DIR] [--models DIR] [--cases N] [--overlap MIN MAX]\n"
                    "       [--configs IMAGE/MATCHER/TILING/ROTATIONS,...] [--threads N] [--seed S] [--gaps F1,F2,...]\n"
-                   "       [--only SOURCE] [--tilt DEG] [--synthetic] [--null] [--verbose]\n";
+                   "       [--only SOURCE] [--tilt DEG] [--synthetic] [--null] [--verbose]\n"
+                   "       [--pair NAME=MASTER.tif,SECONDARY.tif ...] [--scale MIN MAX] [--rotation DEG]\n";
       return 1;
     }
   }
   try {
-    std::vector<Source> sources = synthetic ? std::vector<Source>{} : load_sources(data);
+    std::vector<Source> sources =
+        synthetic ? std::vector<Source>{} : pairs.empty() ? load_sources(data) : pair_sources(data, pairs);
     if (!gaps.empty() && !synthetic) {
       // Each source with its master (even rounds) or secondary (odd rounds) coarsened by each
       // factor, then the real 10 m / 2 m pair both ways round; cases cycle through the list.
@@ -392,6 +427,10 @@ int main(int argc, char** argv) {
     case_options.overlap_min = overlap_min;
     case_options.overlap_max = overlap_max;
     case_options.tilt_max_deg = tilt_max_deg;
+    case_options.scale_min = scale_min;
+    case_options.scale_max = scale_max;
+    case_options.rotation_max_deg = rotation_max_deg;
+    case_options.check();
     std::map<std::string, std::vector<Outcome>> results;
     std::map<std::string, std::map<std::string, std::pair<int, int>>> per_source;
     std::map<std::string, std::vector<MarginRecord>> margins;
@@ -498,6 +537,9 @@ int main(int argc, char** argv) {
                          r.correlation.competitor_tile_chance, r.correlation.by_tiles ? "by tiles" : "not by tiles",
                          r.correlation.seconds.tiles);
           }
+          if (r.success && config.options.refine_surface)
+            std::fprintf(stderr, "  surface refinement: %s, %s, %.2f s\n", r.surface.accepted ? "accepted" : "refused",
+                         r.surface.message.c_str(), r.surface.seconds);
           std::fprintf(stderr, "case %zu %-13s overlap %.2f rot %6.1f scale %.2f | %-32s %s err %8.2f cells, %4zu/%5zu in %.1f s | rms3d %.2f cells, 3D inliers %zu/%zu, trust %s | %s\n",
                        k, source_name.c_str(), c.overlap, c.rotation_deg, c.scale, config.name.c_str(),
                        o.success ? "OK  " : "FAIL", o.error_cells, o.inliers, o.matches, o.seconds, r.rms_3d_cells,
@@ -525,13 +567,15 @@ int main(int argc, char** argv) {
     }
     // How far a reported success can be trusted: wrong = reported success with an error of 2 cells
     // or more; the trust grade should be low for those and high for the right ones.
-    std::printf("\n| configuration | reported successes | right | wrong | wrong graded low (caught) | right graded low (lost) |\n");
-    std::printf("|---|---|---|---|---|---|\n");
+    std::printf("\n| configuration | reported successes | right | wrong | wrong graded low (caught) | right graded low (lost) | error of the reported, median / 90th percentile (cells) |\n");
+    std::printf("|---|---|---|---|---|---|---|\n");
     for (const auto& config : configs) {
       int reported = 0, right = 0, wrong = 0, caught = 0, lost = 0;
+      std::vector<double> errors;
       for (const auto& o : results[config.name]) {
         if (!o.reported) continue;
         ++reported;
+        errors.push_back(o.error_cells);
         const bool high = o.trust == RoughCoregistrationTrust::kHigh;
         if (o.success) {
           ++right;
@@ -541,7 +585,10 @@ int main(int argc, char** argv) {
           caught += !high;
         }
       }
-      std::printf("| %s | %d | %d | %d | %d | %d |\n", config.name.c_str(), reported, right, wrong, caught, lost);
+      std::sort(errors.begin(), errors.end());
+      const double p90 = errors.empty() ? 0.0 : errors[static_cast<std::size_t>(0.9 * static_cast<double>(errors.size() - 1))];
+      std::printf("| %s | %d | %d | %d | %d | %d | %.2f / %.2f |\n", config.name.c_str(), reported, right, wrong, caught,
+                  lost, median(errors), p90);
     }
     // The correlation fallback's margin test: how many of the winners that pass min_score and the
     // gain test each margin would accept, and how many of them are right.

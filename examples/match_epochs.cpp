@@ -486,6 +486,8 @@ void write_report(const std::string& path, const EpochFolder& e1, const EpochFol
       << ", \"correlation_fallback_used\": " << (rough.correlation_used ? "true" : "false")
       << ", \"seconds_correlation_fallback\": " << rough.seconds.correlation
       << ", \"correlation_fallback_by_tiles\": " << (rough.correlation_used && rough.correlation.by_tiles ? "true" : "false")
+      << ", \"surface_refinement\": " << quoted(rough.surface.message)
+      << ", \"surface_refinement_accepted\": " << (rough.surface.accepted ? "true" : "false")
       << ", \"seconds\": " << rough.seconds.total << "},\n";
   out << "  \"overlapping_pairs\": {\"candidates\": " << overlap.candidate_pairs
       << ", \"overlapping\": " << overlap.overlapping_pairs << ", \"kept\": " << overlap.pairs.size()

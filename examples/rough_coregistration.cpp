@@ -54,6 +54,8 @@ const char* kUsage =
     "  --fallback off|heights|gradient       dense correlation search when the features find nothing\n"
     "                                        (small coarse DSMs against fine ones; default gradient,\n"
     "                                        the measured best; heights the earlier search)\n"
+    "  --no-refine-surface                   keep the Helmert of the matches, without the robust\n"
+    "                                        least-squares matching of the two surfaces after it\n"
     "  --nodata V                            also treat heights equal to V as holes (DSMs without a\n"
     "                                        nodata tag, e.g. -9999)\n"
     "  --reproject utm|CRS                   warp both DSMs to this CRS first (utm: the WGS 84 UTM\n"
@@ -116,6 +118,16 @@ void write_report(const std::string& path, const RoughCoregistrationReport& r, c
         << number(c.competitor_tile_chance) << ", \"by_tiles\": " << (c.by_tiles ? "true" : "false")
         << ", \"hypotheses\": " << c.hypotheses << ", \"seconds\": " << r.seconds.correlation << "},\n";
   }
+  // The surface refinement, when it ran (after a success): accepted or why not.
+  if (r.success && r.surface.message != "not run") {
+    const SurfaceAlignmentResult& a = r.surface;
+    out << "  \"surface_refinement\": {\"accepted\": " << (a.accepted ? "true" : "false")
+        << ", \"message\": " << quoted(a.message) << ", \"iterations\": " << a.iterations
+        << ", \"points\": " << a.points << ", \"sigma_before\": " << number(a.sigma_before)
+        << ", \"sigma_after\": " << number(a.sigma_after) << ", \"agreeing_before\": " << a.agreeing_before
+        << ", \"agreeing_after\": " << a.agreeing_after << ", \"moved\": " << a.moved
+        << ", \"seconds\": " << a.seconds << "},\n";
+  }
   out << "  \"seconds\": {\"images\": "
       << r.seconds.images << ", \"matching\": " << r.seconds.matching << ", \"ransac_2d\": " << r.seconds.ransac_2d
       << ", \"lift\": " << r.seconds.lift << ", \"helmert\": " << r.seconds.helmert << ", \"total\": " << r.seconds.total
@@ -164,6 +176,7 @@ int main(int argc, char** argv) {
       } else if (a == "--no-tiling") options.use_tiling = false;
       else if (a == "--no-rotations") options.rotation_hypotheses = false;
       else if (a == "--no-scales") options.scale_hypotheses.enabled = false;
+      else if (a == "--no-refine-surface") options.refine_surface = false;
       else if (a == "--fallback") {
         const std::string f = value();
         DIACHRON_CHECK(f == "off" || f == "heights" || f == "gradient",

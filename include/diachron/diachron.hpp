@@ -61,6 +61,7 @@
 #include <diachron/terrain/masked_ncc.hpp>
 #include <diachron/terrain/ray_dsm_intersection.hpp>
 #include <diachron/terrain/relief_image.hpp>
+#include <diachron/terrain/surface_alignment.hpp>
 #include <diachron/terrain/tile_agreement.hpp>
 #include <diachron/terrain/transfer.hpp>
 #include <diachron/tiling/feature_cache_matcher.hpp>

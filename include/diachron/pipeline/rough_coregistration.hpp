@@ -16,6 +16,7 @@
 #include <cstdio>
 #include <limits>
 #include <optional>
+#include <sstream>
 #include <string>
 #include <type_traits>
 #include <utility>
@@ -41,6 +42,7 @@
 #include <diachron/terrain/dsm_correlation_search.hpp>
 #include <diachron/terrain/dsm_image.hpp>
 #include <diachron/terrain/relief_image.hpp>
+#include <diachron/terrain/surface_alignment.hpp>
 #include <diachron/tiling/feature_cache_matcher.hpp>
 #include <diachron/tiling/grid_tiler.hpp>
 #include <diachron/tiling/one_to_many.hpp>
@@ -135,6 +137,14 @@ struct RoughCoregistrationOptions {
   /// RoughCoregistrationTrust::kLow. Turn it off when failures must be fast.
   bool correlation_fallback = true;
   DsmCorrelationSearchOptions correlation_search{};
+
+  /// After a success (rough_coregistration() only), refine the Helmert by robust least-squares
+  /// matching of the two surfaces (terrain/surface_alignment.hpp): the 3D guard's 10-cell threshold
+  /// lets ground that changed between the epochs pull the fit, and the biweight leaves it out. A
+  /// refinement that is refused (flat ground, a cost that does not fall, a move beyond
+  /// `surface_alignment.max_move_cells`) leaves the result as it was; the report says why.
+  bool refine_surface = true;
+  SurfaceAlignmentOptions surface_alignment{};
   /// The fallback's Helmert must explain at least this fraction of its grid correspondences within
   /// the 3D guard's threshold: a wrong placement leaves most heights disagreeing.
   double correlation_min_inlier_fraction = 0.5;
@@ -186,6 +196,7 @@ struct RoughCoregistrationOptions {
     ransac_2d.check();
     scale_hypotheses.check();
     correlation_search.check();
+    surface_alignment.check();
     DIACHRON_CHECK(correlation_min_inlier_fraction > 0.0 && correlation_min_inlier_fraction <= 1.0,
                    "correlation_min_inlier_fraction must be in (0, 1], got " << correlation_min_inlier_fraction);
     DIACHRON_CHECK(ransac_3d_threshold_cells > 0.0 && std::isfinite(ransac_3d_threshold_cells),
@@ -302,6 +313,9 @@ struct RoughCoregistrationReport {
   bool correlation_used = false;
   DsmCorrelationResult correlation;  ///< its search result (score, runner-up, similarity, times)
 
+  /// The surface refinement (RoughCoregistrationOptions::refine_surface): run after a success; when
+  /// `surface.accepted`, `epoch2_from_epoch1` is its Helmert.
+  SurfaceAlignmentResult surface;
   RoughCoregistrationTimings seconds;
 };
 
@@ -813,6 +827,17 @@ RoughCoregistrationReport rough_coregistration(const Dsm& master, const Dsm& sec
   const bool refused_in_3d = report.rms_3d_cells > options.max_rms_3d_cells;
   if (!report.success && options.correlation_fallback && !refused_in_3d)
     detail::correlation_fallback(master, secondary, options, report);
+  if (report.success && options.refine_surface) {
+    report.surface = refine_surface_alignment(master, secondary, report.epoch2_from_epoch1, options.surface_alignment);
+    if (report.surface.accepted) {
+      report.epoch2_from_epoch1 = report.surface.epoch2_from_epoch1;
+      std::ostringstream note;
+      note.precision(3);
+      note << "; surfaces matched: moved " << report.surface.moved / secondary.min_cell_size() << " cells, robust sigma "
+           << report.surface.sigma_before << " -> " << report.surface.sigma_after;
+      report.message += note.str();
+    }
+  }
   report.seconds.total = detail::seconds_since(start);
   return report;
 }
