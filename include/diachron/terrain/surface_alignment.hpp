@@ -20,10 +20,10 @@
 /// normal matrix is near singular), when it does not converge within `max_iterations` (on a
 /// surface that changed broadly, e.g. a growing lava dome, it drifts along a flat cost), when the
 /// solve does not lower the robust cost, or when it moves the overlap by more than
-/// `max_move_cells` (a refinement, not a new search).
+/// `max_move_cells` cells of the coarser DSM (a refinement, not a new search).
 ///
 /// Units: heights and planimetry of each DSM in its own frame (metric); residuals, sigmas and the
-/// move in the secondary's units; `max_move_cells` in secondary cells (Dsm::min_cell_size).
+/// move in the secondary's units; `max_move_cells` in cells of the coarser DSM (see the option).
 /// Deterministic (fixed sampling grid, sequential sums).
 
 #include <algorithm>
@@ -59,8 +59,9 @@ struct SurfaceAlignmentOptions {
   /// The robust sigma is not taken below this fraction of a secondary cell (a surface that agrees
   /// to the last bit would otherwise weigh everything out). > 0.
   double min_sigma_cells = 0.01;
-  /// Refuse a refinement that moves any sampled master cell by more than this, secondary cells.
-  /// > 0. The rough co-registration's 3D guard accepts residuals up to 10 cells.
+  /// Refuse a refinement that moves any sampled master cell on the secondary surface by more than
+  /// this many cells of the coarser DSM (the master's cell times the Helmert's scale, or the
+  /// secondary's). > 0. The rough co-registration's 3D guard accepts residuals up to 10 cells.
   double max_move_cells = 10.0;
   /// Refuse when the smallest eigenvalue of the scaled normal matrix is below this fraction of the
   /// largest: the surfaces do not fix all 7 parameters (flat or one-directional ground). > 0.
@@ -102,8 +103,8 @@ struct SurfaceAlignmentResult {
   /// Robust sigma of the vertical residuals (1.4826 x median absolute residual), secondary units.
   double sigma_before = std::numeric_limits<double>::infinity();
   double sigma_after = std::numeric_limits<double>::infinity();
-  /// Largest planimetric move of a sampled master cell from the input Helmert to the refined one,
-  /// secondary units.
+  /// Largest planimetric move of a sampled master cell on the secondary surface from the input
+  /// Helmert to the refined one, secondary units.
   double moved = 0.0;
   double seconds = 0.0;
 };
@@ -154,6 +155,9 @@ inline SurfaceAlignmentResult refine_surface_alignment(const Dsm& master, const 
   SurfaceAlignmentResult out;
   out.epoch2_from_epoch1 = epoch2_from_epoch1;
   const double cell = secondary.min_cell_size();
+  // With a resolution gap the rough Helmert is as precise as the coarser DSM: the move is bounded in
+  // its cells (the master's brought to secondary units by the scale).
+  const double bound_cell = std::max(cell, master.min_cell_size() * epoch2_from_epoch1.scale);
   const auto finish = [&](const std::string& why) {
     out.message = why;
     out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -313,21 +317,26 @@ inline SurfaceAlignmentResult refine_surface_alignment(const Dsm& master, const 
   const std::vector<Term> before = evaluate(epoch2_from_epoch1);
   out.agreeing_before = agreeing(before, sigma);
   out.agreeing_after = agreeing(terms, sigma);
-  for (const Eigen::Vector3d& x : cells)
-    out.moved = std::max(out.moved, (h(x) - epoch2_from_epoch1(x)).head<2>().norm());
+  // The move over the overlap (the cells on the secondary surface): a master far larger than the
+  // secondary would otherwise be judged by its far corners, where a small turn moves the most.
+  for (const Term& t : terms)
+    out.moved = std::max(out.moved, (t.moved - epoch2_from_epoch1(cells[t.cell])).head<2>().norm());
   std::ostringstream summary;
   summary.precision(3);
   summary << out.iterations << " iterations, " << out.points << " cells, robust sigma " << out.sigma_before << " -> "
           << out.sigma_after << ", agreeing " << out.agreeing_before << " -> " << out.agreeing_after << ", moved "
           << out.moved / cell << " cells";
   if (!out.converged)
-    return finish("refused, it did not converge in " + std::to_string(options.max_iterations) +
+    return finish("it did not converge in " + std::to_string(options.max_iterations) +
                   " iterations (the surfaces fix it poorly, or they changed too much): " + summary.str());
   if (!(tukey_cost(terms, sigma) < tukey_cost(before, sigma)))
-    return finish("refused, the robust cost did not fall: " + summary.str());
-  if (out.moved > options.max_move_cells * cell)
-    return finish("refused, it moved the master by more than " + std::to_string(options.max_move_cells) +
-                  " cells: " + summary.str());
+    return finish("the robust cost did not fall: " + summary.str());
+  if (out.moved > options.max_move_cells * bound_cell) {
+    std::ostringstream why;
+    why << "it moved the master by more than " << options.max_move_cells << " cells of the coarser DSM ("
+        << options.max_move_cells * bound_cell << " units): " << summary.str();
+    return finish(why.str());
+  }
   out.accepted = true;
   out.epoch2_from_epoch1 = h;
   return finish(summary.str());
