@@ -100,7 +100,7 @@ struct SurfaceAlignmentResult {
   /// ground on which the surfaces agree.
   double agreeing_before = 0.0;
   double agreeing_after = 0.0;
-  /// Robust sigma of the vertical residuals (1.4826 x median absolute residual), secondary units.
+  /// Robust sigma of the normal distances (1.4826 x their median absolute deviation), secondary units.
   double sigma_before = std::numeric_limits<double>::infinity();
   double sigma_after = std::numeric_limits<double>::infinity();
   /// Largest planimetric move of a sampled master cell on the secondary surface from the input
@@ -111,14 +111,9 @@ struct SurfaceAlignmentResult {
 
 namespace detail {
 
-struct SurfaceSample {
-  Eigen::Vector3d master;  // a master cell (x, y, z1) in the master frame
-};
-
-// Median of |v| (v is reordered); 0 for an empty vector.
-inline double median_abs(std::vector<double>& v) {
+// The element at the middle of `v` once sorted (the upper median; v is reordered); 0 when empty.
+inline double median_in_place(std::vector<double>& v) {
   if (v.empty()) return 0.0;
-  for (double& x : v) x = std::fabs(x);
   const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
   std::nth_element(v.begin(), mid, v.end());
   return *mid;
@@ -198,12 +193,11 @@ inline SurfaceAlignmentResult refine_surface_alignment(const Dsm& master, const 
     std::vector<double> r;
     r.reserve(terms.size());
     for (const Term& t : terms) r.push_back(t.d);
-    // Residuals about their median: a vertical offset left by the rough Helmert is not spread.
+    // Distances about their median: a vertical offset left by the rough Helmert is not spread.
     std::vector<double> sorted = r;
-    const auto mid = sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2);
-    std::nth_element(sorted.begin(), mid, sorted.end());
-    for (double& x : r) x -= *mid;
-    return std::max(1.4826 * detail::median_abs(r), options.min_sigma_cells * cell);
+    const double middle = detail::median_in_place(sorted);
+    for (double& x : r) x = std::fabs(x - middle);
+    return std::max(1.4826 * detail::median_in_place(r), options.min_sigma_cells * cell);
   };
   const auto tukey_cost = [&](const std::vector<Term>& terms, double sigma) {
     const double c = options.tukey_sigmas * sigma;
@@ -235,9 +229,7 @@ inline SurfaceAlignmentResult refine_surface_alignment(const Dsm& master, const 
     std::vector<double> r;
     r.reserve(terms.size());
     for (const Term& t : terms) r.push_back(t.r);
-    const auto mid = r.begin() + static_cast<std::ptrdiff_t>(r.size() / 2);
-    std::nth_element(r.begin(), mid, r.end());
-    h.translation.z() += *mid;
+    h.translation.z() += detail::median_in_place(r);
     terms = evaluate(h);
   }
   double sigma = out.sigma_before;
