@@ -88,17 +88,23 @@ Helmert3 perturbed(const Helmert3& h) {
   return p;
 }
 
+// The master of the tests: 240 x 240 cells of 1.6 m (2 m on the ground after the truth's scale
+// 1.25) whose frame's origin the truth maps near the secondary's middle, so that it falls inside.
+Dsm master_window(const std::function<double(double, double)>& world,
+                  const std::function<double(double, double)>& change) {
+  const Helmert3 truth = truth_helmert();
+  const Eigen::Vector3d corner = truth.inverse()(Eigen::Vector3d(500.0, 3500.0, 800.0));
+  return master_of(truth, world, change, corner.x() - 150.0, corner.y() + 150.0, 1.6, 240, 240);
+}
+
+double no_change(double, double) { return 0.0; }
+
 }  // namespace
 
 TEST_CASE("surface alignment recovers a Helmert from a start a few cells off", "[terrain][surface_alignment]") {
   const Helmert3 truth = truth_helmert();
   const Dsm secondary = sample(hills, 0.0, 4000.0, 2.0, 800, 800);
-  const auto none = [](double, double) { return 0.0; };
-  // The master frame's origin maps near the secondary's middle: its 240 x 240 cells of 1.6 m (2 m
-  // on the ground after the scale 1.25) fall inside the secondary.
-  const Helmert3 inverse = truth.inverse();
-  const Eigen::Vector3d corner = inverse(Eigen::Vector3d(500.0, 3500.0, 800.0));
-  const Dsm master = master_of(truth, hills, none, corner.x() - 150.0, corner.y() + 150.0, 1.6, 240, 240);
+  const Dsm master = master_window(hills, no_change);
   const Helmert3 start = perturbed(truth);
   REQUIRE(largest_gap(start, truth, master) > 5.0);
 
@@ -121,9 +127,7 @@ TEST_CASE("surface alignment leaves ground that changed out of the fit", "[terra
     const double d2 = (x - 560.0) * (x - 560.0) + (y - 3440.0) * (y - 3440.0);
     return -40.0 * std::exp(-d2 / (2.0 * 40.0 * 40.0));
   };
-  const Helmert3 inverse = truth.inverse();
-  const Eigen::Vector3d corner = inverse(Eigen::Vector3d(500.0, 3500.0, 800.0));
-  const Dsm master = master_of(truth, hills, dome, corner.x() - 150.0, corner.y() + 150.0, 1.6, 240, 240);
+  const Dsm master = master_window(hills, dome);
 
   const diachron::SurfaceAlignmentResult r = diachron::refine_surface_alignment(master, secondary, perturbed(truth));
   INFO(r.message);
@@ -141,14 +145,11 @@ TEST_CASE("surface alignment leaves ground that changed out of the fit", "[terra
 
 TEST_CASE("surface alignment refuses what the surfaces cannot fix", "[terrain][surface_alignment]") {
   const Helmert3 truth = truth_helmert();
-  const Helmert3 inverse = truth.inverse();
-  const Eigen::Vector3d corner = inverse(Eigen::Vector3d(500.0, 3500.0, 800.0));
-  const auto none = [](double, double) { return 0.0; };
 
   SECTION("flat ground") {
     const auto flat = [](double, double) { return 700.0; };
     const Dsm secondary = sample(flat, 0.0, 4000.0, 2.0, 800, 800);
-    const Dsm master = master_of(truth, flat, none, corner.x() - 150.0, corner.y() + 150.0, 1.6, 240, 240);
+    const Dsm master = master_window(flat, no_change);
     const diachron::SurfaceAlignmentResult r = diachron::refine_surface_alignment(master, secondary, perturbed(truth));
     CHECK_FALSE(r.accepted);
     CHECK(r.message.find("do not fix") != std::string::npos);
@@ -156,7 +157,7 @@ TEST_CASE("surface alignment refuses what the surfaces cannot fix", "[terrain][s
   }
   SECTION("a move beyond the bound") {
     const Dsm secondary = sample(hills, 0.0, 4000.0, 2.0, 800, 800);
-    const Dsm master = master_of(truth, hills, none, corner.x() - 150.0, corner.y() + 150.0, 1.6, 240, 240);
+    const Dsm master = master_window(hills, no_change);
     diachron::SurfaceAlignmentOptions o;
     o.max_move_cells = 1.0;  // the start is 3 to 6 cells off
     const diachron::SurfaceAlignmentResult r =
@@ -167,7 +168,7 @@ TEST_CASE("surface alignment refuses what the surfaces cannot fix", "[terrain][s
   }
   SECTION("no overlap") {
     const Dsm secondary = sample(hills, 0.0, 4000.0, 2.0, 800, 800);
-    const Dsm master = master_of(truth, hills, none, corner.x() - 150.0, corner.y() + 150.0, 1.6, 240, 240);
+    const Dsm master = master_window(hills, no_change);
     Helmert3 away = truth;
     away.translation.x() += 1e5;
     const diachron::SurfaceAlignmentResult r = diachron::refine_surface_alignment(master, secondary, away);

@@ -137,17 +137,17 @@ struct RoughCoregistrationOptions {
   /// RoughCoregistrationTrust::kLow. Turn it off when failures must be fast.
   bool correlation_fallback = true;
   DsmCorrelationSearchOptions correlation_search{};
+  /// The fallback's Helmert must explain at least this fraction of its grid correspondences within
+  /// the 3D guard's threshold: a wrong placement leaves most heights disagreeing.
+  double correlation_min_inlier_fraction = 0.5;
 
   /// After a success (rough_coregistration() only), refine the Helmert by robust least-squares
   /// matching of the two surfaces (terrain/surface_alignment.hpp): the 3D guard's 10-cell threshold
   /// lets ground that changed between the epochs pull the fit, and the biweight leaves it out. A
-  /// refinement that is refused (flat ground, a cost that does not fall, a move beyond
-  /// `surface_alignment.max_move_cells`) leaves the result as it was; the report says why.
+  /// refinement that is refused (flat ground, no convergence, a cost that does not fall, a move
+  /// beyond `surface_alignment.max_move_cells`) leaves the result as it was; the report says why.
   bool refine_surface = true;
   SurfaceAlignmentOptions surface_alignment{};
-  /// The fallback's Helmert must explain at least this fraction of its grid correspondences within
-  /// the 3D guard's threshold: a wrong placement leaves most heights disagreeing.
-  double correlation_min_inlier_fraction = 0.5;
 
   /// 2D similarity RANSAC on DSM-image pixels: 10 px and 1000 iterations as the paper and MicMac.
   /// The seed is also the pipeline's seed.

@@ -214,24 +214,25 @@ inline SurfaceAlignmentResult refine_surface_alignment(const Dsm& master, const 
     return terms.empty() ? 0.0 : static_cast<double>(n) / static_cast<double>(terms.size());
   };
 
-  std::vector<Term> terms = evaluate(epoch2_from_epoch1);
-  if (terms.size() < static_cast<std::size_t>(options.min_points)) {
+  // The input's terms, kept: the refinement is judged against them at the end.
+  const std::vector<Term> initial = evaluate(epoch2_from_epoch1);
+  if (initial.size() < static_cast<std::size_t>(options.min_points)) {
     std::ostringstream why;
-    why << "only " << terms.size() << " master cells land on the secondary surface, fewer than "
+    why << "only " << initial.size() << " master cells land on the secondary surface, fewer than "
         << options.min_points;
     return finish(why.str());
   }
-  out.sigma_before = robust_sigma(terms);
+  out.sigma_before = robust_sigma(initial);
   // A vertical offset the rough Helmert left would put every residual beyond the biweight's bound:
   // the median residual is taken up first.
   Helmert3 h = epoch2_from_epoch1;
   {
     std::vector<double> r;
-    r.reserve(terms.size());
-    for (const Term& t : terms) r.push_back(t.r);
+    r.reserve(initial.size());
+    for (const Term& t : initial) r.push_back(t.r);
     h.translation.z() += detail::median_in_place(r);
-    terms = evaluate(h);
   }
+  std::vector<Term> terms = evaluate(h);
   double sigma = out.sigma_before;
   for (int iteration = 0; iteration < options.max_iterations; ++iteration) {
     out.iterations = iteration + 1;
@@ -306,8 +307,7 @@ inline SurfaceAlignmentResult refine_surface_alignment(const Dsm& master, const 
   }
   out.sigma_after = sigma;
   out.points = terms.size();
-  const std::vector<Term> before = evaluate(epoch2_from_epoch1);
-  out.agreeing_before = agreeing(before, sigma);
+  out.agreeing_before = agreeing(initial, sigma);
   out.agreeing_after = agreeing(terms, sigma);
   // The move over the overlap (the cells on the secondary surface): a master far larger than the
   // secondary would otherwise be judged by its far corners, where a small turn moves the most.
@@ -321,7 +321,7 @@ inline SurfaceAlignmentResult refine_surface_alignment(const Dsm& master, const 
   if (!out.converged)
     return finish("it did not converge in " + std::to_string(options.max_iterations) +
                   " iterations (the surfaces fix it poorly, or they changed too much): " + summary.str());
-  if (!(tukey_cost(terms, sigma) < tukey_cost(before, sigma)))
+  if (!(tukey_cost(terms, sigma) < tukey_cost(initial, sigma)))
     return finish("the robust cost did not fall: " + summary.str());
   if (out.moved > options.max_move_cells * bound_cell) {
     std::ostringstream why;
