@@ -49,7 +49,9 @@
 // or default/MATCHER/default/default: RoughCoregistrationOptions{} as shipped, and
 // noscale/MATCHER/default/default: the same without scale hypotheses (small images are still
 // enlarged; up0 turns that off), nofallback/MATCHER/default/default: the same without the dense
-// correlation fallback, upN[mK][xF], minscoreS and corr...: see parse_config.
+// correlation fallback, norefine and noconfirm: the same without the surface refinement or without
+// the surfaces' confirmation of a refused fallback winner, upN[mK][xF], minscoreS and corr...: see
+// parse_config.
 // The paper's plain SIFT baseline is stretch2/sift/whole/norot. Prints a Markdown table.
 
 #include <algorithm>
@@ -199,6 +201,12 @@ Config parse_config(const std::string& text) {
   // norefine: the default without the surface refinement (RoughCoregistrationOptions::refine_surface).
   if (image == "norefine") {
     o.refine_surface = false;
+    return c;
+  }
+  // noconfirm: the default without the confirmation of refused fallback winners by the surfaces
+  // (RoughCoregistrationOptions::surface_confirmation).
+  if (image == "noconfirm") {
+    o.surface_confirmation = false;
     return c;
   }
   if (image == "noscale") {
@@ -537,6 +545,12 @@ int main(int argc, char** argv) {
                          r.correlation.competitor_tile_chance, r.correlation.by_tiles ? "by tiles" : "not by tiles",
                          r.correlation.seconds.tiles);
           }
+          if (r.agreement.valid)
+            std::fprintf(stderr, "  surfaces agree: misfit %.3g = %.2f x the DSMs' noise (%.3g, %.3g), %zu cells, %.0f coarse cells%s\n",
+                         r.agreement.misfit, r.agreement.noise_ratio, r.agreement.master_noise,
+                         r.agreement.secondary_noise, r.agreement.points, r.agreement.overlap_cells,
+                         r.success ? (r.confirmed_by_surface ? ", confirmed the fallback's refused winner" : "")
+                                   : ", the fallback's refused winner not confirmed");
           if (r.success && config.options.refine_surface)
             std::fprintf(stderr, "  surface refinement: %s, %s, %.2f s\n", r.surface.accepted ? "accepted" : "refused",
                          r.surface.message.c_str(), r.surface.seconds);

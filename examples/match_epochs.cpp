@@ -488,6 +488,10 @@ void write_report(const std::string& path, const EpochFolder& e1, const EpochFol
       << ", \"correlation_fallback_by_tiles\": " << (rough.correlation_used && rough.correlation.by_tiles ? "true" : "false")
       << ", \"surface_refinement\": " << quoted(rough.surface.message)
       << ", \"surface_refinement_accepted\": " << (rough.surface.accepted ? "true" : "false")
+      << ", \"correlation_fallback_confirmed_by_surface\": " << (rough.confirmed_by_surface ? "true" : "false")
+      << ", \"surface_noise_ratio\": "
+      << (rough.agreement.valid && std::isfinite(rough.agreement.noise_ratio) ? std::to_string(rough.agreement.noise_ratio)
+                                                                                : std::string("null"))
       << ", \"seconds\": " << rough.seconds.total << "},\n";
   out << "  \"overlapping_pairs\": {\"candidates\": " << overlap.candidate_pairs
       << ", \"overlapping\": " << overlap.overlapping_pairs << ", \"kept\": " << overlap.pairs.size()

@@ -56,6 +56,8 @@ const char* kUsage =
     "                                        the measured best; heights the earlier search)\n"
     "  --no-refine-surface                   keep the Helmert of the matches, without the robust\n"
     "                                        least-squares matching of the two surfaces after it\n"
+    "  --no-surface-confirmation             a winner the fallback's search refuses stays refused,\n"
+    "                                        even when the two surfaces confirm it\n"
     "  --nodata V                            also treat heights equal to V as holes (DSMs without a\n"
     "                                        nodata tag, e.g. -9999)\n"
     "  --reproject utm|CRS                   warp both DSMs to this CRS first (utm: the WGS 84 UTM\n"
@@ -116,10 +118,19 @@ void write_report(const std::string& path, const RoughCoregistrationReport& r, c
         << ", \"tiles\": " << c.tiles.tiles << ", \"tiles_agreeing\": " << c.tiles.agree
         << ", \"tile_chance\": " << number(c.tile_chance) << ", \"competitor_tile_chance\": "
         << number(c.competitor_tile_chance) << ", \"by_tiles\": " << (c.by_tiles ? "true" : "false")
-        << ", \"hypotheses\": " << c.hypotheses << ", \"seconds\": " << r.seconds.correlation << "},\n";
+        << ", \"hypotheses\": " << c.hypotheses << ", \"confirmed_by_surface\": "
+        << (r.confirmed_by_surface ? "true" : "false") << ", \"seconds\": " << r.seconds.correlation << "},\n";
   }
-  // The surface refinement, when it ran (after a success): accepted or why not.
-  if (r.success && r.surface.message != "not run") {
+  // How closely the surfaces agree under the answer (or under the refused winner the confirmation
+  // measured), against the DSMs' own noise.
+  if (r.agreement.valid) {
+    const SurfaceAgreement& g = r.agreement;
+    out << "  \"surface_agreement\": {\"misfit\": " << number(g.misfit) << ", \"master_noise\": " << number(g.master_noise)
+        << ", \"secondary_noise\": " << number(g.secondary_noise) << ", \"noise_ratio\": " << number(g.noise_ratio)
+        << ", \"points\": " << g.points << ", \"overlap_cells\": " << g.overlap_cells << "},\n";
+  }
+  // The surface refinement, when it ran (after a success, or for the confirmation): accepted or why not.
+  if (r.surface.message != "not run") {
     const SurfaceAlignmentResult& a = r.surface;
     out << "  \"surface_refinement\": {\"accepted\": " << (a.accepted ? "true" : "false")
         << ", \"message\": " << quoted(a.message) << ", \"iterations\": " << a.iterations
@@ -177,6 +188,7 @@ int main(int argc, char** argv) {
       else if (a == "--no-rotations") options.rotation_hypotheses = false;
       else if (a == "--no-scales") options.scale_hypotheses.enabled = false;
       else if (a == "--no-refine-surface") options.refine_surface = false;
+      else if (a == "--no-surface-confirmation") options.surface_confirmation = false;
       else if (a == "--fallback") {
         const std::string f = value();
         DIACHRON_CHECK(f == "off" || f == "heights" || f == "gradient",

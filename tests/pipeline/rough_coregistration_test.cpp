@@ -3,9 +3,11 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <memory>
 #include <mutex>
+#include <string>
 #include <vector>
 
 #include <ogr_spatialref.h>
@@ -26,9 +28,9 @@ diachron::ExtractorPairMatcher<diachron::SiftExtractor> sift_matcher() {
 }
 
 // Rough, hilly terrain with structure at several scales, so that a DSM image has features.
-diachron::Dsm synthetic_world(int w = 420, int h = 360) {
+diachron::Dsm synthetic_world(int w = 420, int h = 360, std::uint64_t seed = 11) {
   diachron::Raster<float> z(w, h);
-  diachron::RandomStream rng(11);
+  diachron::RandomStream rng(seed);
   std::vector<Eigen::Vector4d> bumps;
   for (int i = 0; i < 120; ++i) {
     // One draw per statement, the last argument first (height, radius, y, x): the order of a call's
@@ -621,4 +623,64 @@ TEST_CASE("rough_coregistration: the correlation fallback (on by default) answer
   const diachron::HelmertError e = diachron::helmert_error_on_overlap(with.epoch2_from_epoch1, c);
   REQUIRE(e.valid);
   CHECK(e.rms < 1.0 * c.secondary.min_cell_size());
+}
+
+TEST_CASE("rough_coregistration: a winner the search refuses is the answer only when the surfaces confirm it",
+          "[pipeline]") {
+  diachron::RoughCoregistrationOptions options;
+  CHECK(options.surface_confirmation);
+  options.scale_hypotheses.enabled = false;
+  // A margin no winner reaches, and no answer by tiles: the search refuses every winner.
+  options.correlation_search.min_margin = 1.99;
+  options.correlation_search.max_tile_chance = 0.0;
+
+  const diachron::CoregistrationCase c = synthetic_case(7);
+  options.surface_confirmation = false;
+  const auto refused = diachron::rough_coregistration(c.master, c.secondary, BlindMatcher{}, options);
+  INFO(refused.message);
+  CHECK_FALSE(refused.success);
+  CHECK(refused.correlation_ran);
+  CHECK_FALSE(refused.confirmed_by_surface);
+  CHECK(refused.message.find("margin") != std::string::npos);
+
+  options.surface_confirmation = true;
+  const auto confirmed = diachron::rough_coregistration(c.master, c.secondary, BlindMatcher{}, options);
+  INFO(confirmed.message);
+  REQUIRE(confirmed.success);
+  CHECK(confirmed.correlation_used);
+  CHECK(confirmed.confirmed_by_surface);
+  CHECK(confirmed.trust == diachron::RoughCoregistrationTrust::kLow);
+  CHECK(confirmed.surface.accepted);
+  CHECK(confirmed.agreement.valid);
+  CHECK(confirmed.agreement.noise_ratio <= options.surface_confirmation_max_noise_ratio);
+  CHECK(confirmed.message.find("confirmed by the surfaces") != std::string::npos);
+  const diachron::HelmertError e = diachron::helmert_error_on_overlap(confirmed.epoch2_from_epoch1, c);
+  REQUIRE(e.valid);
+  CHECK(e.rms < 0.5 * c.secondary.min_cell_size());
+
+  // A ratio no placement reaches: the same winner is refused, with the measured ratio in the reason.
+  options.surface_confirmation_max_noise_ratio = 1e-3;
+  const auto strict = diachron::rough_coregistration(c.master, c.secondary, BlindMatcher{}, options);
+  INFO(strict.message);
+  CHECK_FALSE(strict.success);
+  CHECK(strict.message.find("not confirmed by the surfaces") != std::string::npos);
+  CHECK(strict.message.find("a ratio above") != std::string::npos);
+  options.surface_confirmation_max_noise_ratio = 3.0;
+  // Nor when the overlap is fewer cells of the coarser DSM than asked for.
+  options.surface_confirmation_min_cells = 1e9;
+  const auto small = diachron::rough_coregistration(c.master, c.secondary, BlindMatcher{}, options);
+  INFO(small.message);
+  CHECK_FALSE(small.success);
+  CHECK(small.message.find("fewer cells than") != std::string::npos);
+  options.surface_confirmation_min_cells = 500.0;
+
+  // Two terrains that share no ground: whatever the search's winner, the surfaces do not confirm it.
+  const diachron::Dsm elsewhere = synthetic_world(420, 360, 29);
+  diachron::CoregistrationCaseOptions case_options;
+  case_options.overlap_min = case_options.overlap_max = 0.7;
+  const diachron::Dsm foreign = diachron::make_coregistration_case(elsewhere, elsewhere, case_options, 8).secondary;
+  const auto apart = diachron::rough_coregistration(c.master, foreign, BlindMatcher{}, options);
+  INFO(apart.message);
+  CHECK_FALSE(apart.success);
+  CHECK_FALSE(apart.confirmed_by_surface);
 }

@@ -42,6 +42,7 @@
 #include <diachron/terrain/dsm_correlation_search.hpp>
 #include <diachron/terrain/dsm_image.hpp>
 #include <diachron/terrain/relief_image.hpp>
+#include <diachron/terrain/surface_agreement.hpp>
 #include <diachron/terrain/surface_alignment.hpp>
 #include <diachron/tiling/feature_cache_matcher.hpp>
 #include <diachron/tiling/grid_tiler.hpp>
@@ -141,6 +142,36 @@ struct RoughCoregistrationOptions {
   /// the 3D guard's threshold: a wrong placement leaves most heights disagreeing.
   double correlation_min_inlier_fraction = 0.5;
 
+  /// When the fallback's search refuses its winner (score, margin, gain or tiles), the winner is
+  /// still the answer when the two surfaces confirm it: its grid correspondences pass the 3D guard,
+  /// the surface refinement (`surface_alignment`) accepts it, and after that the surfaces agree
+  /// within `surface_confirmation_max_noise_ratio` times the DSMs' own cell-scale noise
+  /// (terrain/surface_agreement.hpp). The search's tests judge a correlation of gradients on
+  /// working rasters, which noise on a coarse DSM drags down at right placements; the surfaces
+  /// judge the heights themselves. Measured (docs/rough-coregistration.md, "Confirmation by the
+  /// surfaces"): 18 right placements 0.80 to 2.57 times the noise; the 49 wrong ones whose
+  /// refinement was accepted, on 285 DSM pairs that do not overlap, 3.17 times and more. The one at
+  /// 3.17 rested on 118 cells of the coarser DSM, every right one on 2695 or more, hence also
+  /// `min_cells`: a misfit from a few hundred heights, after fitting 7 parameters, does not tell
+  /// ground apart. It answered 12 more of 200 resolution-gap cases, 2 more of 100 no-gap cases at
+  /// 10-30 % overlap and 4 more of 40 synthetic epoch pairs, none wrong. Answers confirmed so are
+  /// graded RoughCoregistrationTrust::kLow, as every fallback answer.
+  bool surface_confirmation = true;
+  double surface_confirmation_max_noise_ratio = 3.0;
+  double surface_confirmation_min_cells = 500.0;
+  /// The confirmation's refinement starts from the search's winner, which may be several coarse
+  /// cells off at the master's centre and more at its edges (the search's rotation and scale steps),
+  /// so it may move the master by up to 30 coarse cells in up to 100 iterations: the agreement after
+  /// it decides, not the move. With `surface_alignment`'s 10 cells and 50 iterations, 4 right
+  /// winners of 100 gap cases (SRTM 8 times coarser) were refused on the way to the right answer.
+  SurfaceAlignmentOptions surface_confirmation_alignment = [] {
+    SurfaceAlignmentOptions o;
+    o.max_move_cells = 30.0;
+    o.max_iterations = 100;
+    return o;
+  }();
+  SurfaceAgreementOptions surface_agreement{};
+
   /// After a success (rough_coregistration() only), refine the Helmert by robust least-squares
   /// matching of the two surfaces (terrain/surface_alignment.hpp): the 3D guard's 10-cell threshold
   /// lets ground that changed between the epochs pull the fit, and the biweight leaves it out. A
@@ -197,6 +228,12 @@ struct RoughCoregistrationOptions {
     scale_hypotheses.check();
     correlation_search.check();
     surface_alignment.check();
+    surface_agreement.check();
+    surface_confirmation_alignment.check();
+    DIACHRON_CHECK(surface_confirmation_max_noise_ratio > 0.0 && !std::isnan(surface_confirmation_max_noise_ratio),
+                   "surface_confirmation_max_noise_ratio must be positive, got " << surface_confirmation_max_noise_ratio);
+    DIACHRON_CHECK(surface_confirmation_min_cells >= 0.0 && std::isfinite(surface_confirmation_min_cells),
+                   "surface_confirmation_min_cells must be >= 0, got " << surface_confirmation_min_cells);
     DIACHRON_CHECK(correlation_min_inlier_fraction > 0.0 && correlation_min_inlier_fraction <= 1.0,
                    "correlation_min_inlier_fraction must be in (0, 1], got " << correlation_min_inlier_fraction);
     DIACHRON_CHECK(ransac_3d_threshold_cells > 0.0 && std::isfinite(ransac_3d_threshold_cells),
@@ -313,9 +350,18 @@ struct RoughCoregistrationReport {
   bool correlation_used = false;
   DsmCorrelationResult correlation;  ///< its search result (score, runner-up, similarity, times)
 
-  /// The surface refinement (RoughCoregistrationOptions::refine_surface): run after a success; when
-  /// `surface.accepted`, `epoch2_from_epoch1` is its Helmert.
+  /// The fallback's winner was refused by its search and confirmed by the surfaces
+  /// (RoughCoregistrationOptions::surface_confirmation); then `correlation_used` too.
+  bool confirmed_by_surface = false;
+
+  /// The surface refinement (RoughCoregistrationOptions::refine_surface): run after a success;
+  /// when `surface.accepted`, `epoch2_from_epoch1` is its Helmert. Also what the confirmation
+  /// refined, when it ran, whether it confirmed or not.
   SurfaceAlignmentResult surface;
+  /// How closely the surfaces agree under the result, against the DSMs' own noise
+  /// (terrain/surface_agreement.hpp): measured after every success, and by the confirmation once
+  /// its refinement was accepted (then also on refusal).
+  SurfaceAgreement agreement;
   RoughCoregistrationTimings seconds;
 };
 
@@ -653,9 +699,11 @@ RoughCoregistrationReport rough_coregistration_images_impl(const GeoImage& maste
 }
 
 // The dense correlation fallback: runs the search; on an answer, grid correspondences, the 3D
-// Helmert RANSAC guard (as the feature path), and the inlier-fraction check. Writes `report` only
-// when the fallback succeeds (the feature path's failure message is kept otherwise, with the
-// fallback's reason appended).
+// Helmert RANSAC guard (as the feature path), and the inlier-fraction check. On a winner the search
+// refused, the confirmation by the surfaces instead of the fraction (see
+// RoughCoregistrationOptions::surface_confirmation). Writes `report` only when the fallback
+// succeeds (the feature path's failure message is kept otherwise, with the fallback's reason
+// appended).
 inline void correlation_fallback(const Dsm& master, const Dsm& secondary, const RoughCoregistrationOptions& options,
                                  RoughCoregistrationReport& report) {
   const auto t0 = std::chrono::steady_clock::now();
@@ -668,18 +716,48 @@ inline void correlation_fallback(const Dsm& master, const Dsm& secondary, const 
     report.message += "; correlation fallback: " + why;
     report.seconds.correlation = seconds_since(t0);
   };
-  if (!report.correlation.success) return fail(report.correlation.message);
-  std::vector<PointPair3> lifted = dsm_correlation_correspondences(master, secondary, report.correlation);
-  if (lifted.size() < options.min_inliers_3d) return fail("too few correspondences with heights on both sides");
+  const DsmCorrelationResult& found = report.correlation;
+  // A refused search still names a winner when some hypothesis had an overlap to score.
+  const bool winner = std::isfinite(found.score) && std::isfinite(found.scale) && found.scale > 0.0 &&
+                      found.translation.allFinite();
+  const bool confirm = !found.success && options.surface_confirmation && winner;
+  if (!found.success && !confirm) return fail(found.message);
+  // On the confirmation's path every reason is the search's refusal and why the surfaces did not lift it.
+  const std::string why = confirm ? found.message + "; the winner is not confirmed by the surfaces: " : std::string();
+  std::vector<PointPair3> lifted = dsm_correlation_correspondences(master, secondary, found);
+  if (lifted.size() < options.min_inliers_3d) return fail(why + "too few correspondences with heights on both sides");
   RansacOptions ransac_3d = options.ransac_2d;
   ransac_3d.threshold = options.ransac_3d_threshold_cells * secondary.min_cell_size();
   ransac_3d.min_inliers = options.min_inliers_3d;
   const RansacReport<Helmert3> guard = ransac_helmert3(lifted, ransac_3d);
-  if (!guard.success) return fail("the correspondences do not agree on a 3D Helmert: " + guard.message);
-  const double fraction = static_cast<double>(guard.inliers.size()) / static_cast<double>(lifted.size());
-  if (fraction < options.correlation_min_inlier_fraction)
-    return fail("only " + std::to_string(guard.inliers.size()) + " of " + std::to_string(lifted.size()) +
-                " correspondences agree in 3D");
+  if (!guard.success) return fail(why + "the correspondences do not agree on a 3D Helmert: " + guard.message);
+  std::string confirmation;
+  if (confirm) {
+    // Both kept in the report whatever the outcome: they say why a winner was refused.
+    report.surface = refine_surface_alignment(master, secondary, guard.model, options.surface_confirmation_alignment);
+    const SurfaceAlignmentResult& refined = report.surface;
+    if (!refined.accepted) return fail(why + refined.message);
+    report.agreement = surface_agreement(master, secondary, refined.epoch2_from_epoch1, options.surface_agreement);
+    const SurfaceAgreement& agreement = report.agreement;
+    if (!agreement.valid) return fail(why + "too few cells to compare the surfaces");
+    std::ostringstream note;
+    note.precision(3);
+    note << "misfit " << agreement.misfit << " = " << agreement.noise_ratio << " x the DSMs' noise ("
+         << agreement.master_noise << ", " << agreement.secondary_noise << ") over "
+         << std::lround(agreement.overlap_cells) << " cells of the coarser DSM";
+    if (!(agreement.noise_ratio <= options.surface_confirmation_max_noise_ratio))
+      return fail(why + note.str() + ", a ratio above " + std::to_string(options.surface_confirmation_max_noise_ratio));
+    if (agreement.overlap_cells < options.surface_confirmation_min_cells)
+      return fail(why + note.str() + ", fewer cells than " +
+                  std::to_string(std::lround(options.surface_confirmation_min_cells)));
+    report.confirmed_by_surface = true;
+    confirmation = "; confirmed by the surfaces: refined (" + refined.message + "), " + note.str();
+  } else {
+    const double fraction = static_cast<double>(guard.inliers.size()) / static_cast<double>(lifted.size());
+    if (fraction < options.correlation_min_inlier_fraction)
+      return fail("only " + std::to_string(guard.inliers.size()) + " of " + std::to_string(lifted.size()) +
+                  " correspondences agree in 3D");
+  }
   const Helmert3Estimator estimator;
   double sum2 = 0.0;
   for (std::size_t i : guard.inliers) {
@@ -688,7 +766,7 @@ inline void correlation_fallback(const Dsm& master, const Dsm& secondary, const 
   }
   report.success = true;
   report.correlation_used = true;
-  report.epoch2_from_epoch1 = guard.model;
+  report.epoch2_from_epoch1 = confirm ? report.surface.epoch2_from_epoch1 : guard.model;
   report.lifted = std::move(lifted);
   report.inliers_3d = guard.inliers;
   report.rms_3d = std::sqrt(sum2 / static_cast<double>(guard.inliers.size()));
@@ -699,7 +777,7 @@ inline void correlation_fallback(const Dsm& master, const Dsm& secondary, const 
   // one with all its grid points within 0.6 cells (docs/rough-coregistration.md, "Cases without an
   // answer").
   report.trust = RoughCoregistrationTrust::kLow;
-  report.message = "correlation fallback: " + report.correlation.message + "; " +
+  report.message = "correlation fallback: " + found.message + confirmation + "; " +
                    std::to_string(report.inliers_3d.size()) + " of " + std::to_string(report.lifted.size()) +
                    " grid correspondences agree in 3D, RMS " + format_cells(report.rms_3d_cells) + " cells, trust " +
                    to_string(report.trust);
@@ -827,7 +905,8 @@ RoughCoregistrationReport rough_coregistration(const Dsm& master, const Dsm& sec
   const bool refused_in_3d = report.rms_3d_cells > options.max_rms_3d_cells;
   if (!report.success && options.correlation_fallback && !refused_in_3d)
     detail::correlation_fallback(master, secondary, options, report);
-  if (report.success && options.refine_surface) {
+  // A confirmed fallback answer is refined already (the confirmation is that refinement).
+  if (report.success && options.refine_surface && !report.confirmed_by_surface) {
     report.surface = refine_surface_alignment(master, secondary, report.epoch2_from_epoch1, options.surface_alignment);
     if (report.surface.accepted) {
       report.epoch2_from_epoch1 = report.surface.epoch2_from_epoch1;
@@ -838,6 +917,8 @@ RoughCoregistrationReport rough_coregistration(const Dsm& master, const Dsm& sec
       report.message += note.str();
     }
   }
+  if (report.success && !report.confirmed_by_surface)
+    report.agreement = surface_agreement(master, secondary, report.epoch2_from_epoch1, options.surface_agreement);
   report.seconds.total = detail::seconds_since(start);
   return report;
 }
