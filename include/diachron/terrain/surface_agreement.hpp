@@ -28,6 +28,7 @@
 #include <diachron/core/error.hpp>
 #include <diachron/geometry/helmert3.hpp>
 #include <diachron/terrain/dsm.hpp>
+#include <diachron/terrain/surface_alignment.hpp>  // detail::robust_sigma_in_place
 
 namespace diachron {
 
@@ -65,17 +66,6 @@ struct SurfaceAgreement {
 };
 
 namespace detail {
-
-// Robust sigma of `v` about its median (1.4826 x MAD; v is reordered); NaN when empty.
-inline double robust_sigma_in_place(std::vector<double>& v) {
-  if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
-  const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
-  std::nth_element(v.begin(), mid, v.end());
-  const double median = *mid;
-  for (double& x : v) x = std::abs(x - median);
-  std::nth_element(v.begin(), mid, v.end());
-  return 1.4826 * *mid;
-}
 
 // Grid stride that takes at most `max_points` of width x height cells.
 inline int sampling_stride(int width, int height, int max_points) {

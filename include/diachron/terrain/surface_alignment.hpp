@@ -119,6 +119,15 @@ inline double median_in_place(std::vector<double>& v) {
   return *mid;
 }
 
+// Robust sigma of `v` about its median: 1.4826 x the median absolute deviation (v is reordered and
+// overwritten); NaN when empty.
+inline double robust_sigma_in_place(std::vector<double>& v) {
+  if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
+  const double middle = median_in_place(v);
+  for (double& x : v) x = std::fabs(x - middle);
+  return 1.4826 * median_in_place(v);
+}
+
 // Residual z2(X, Y) - Z of a moved point and the secondary surface's gradient there (central
 // differences over one cell in world X and Y). False when the height or the gradient is undefined.
 inline bool surface_residual(const Dsm& secondary, const Eigen::Vector3d& p, double step, double& r,
@@ -194,10 +203,7 @@ inline SurfaceAlignmentResult refine_surface_alignment(const Dsm& master, const 
     r.reserve(terms.size());
     for (const Term& t : terms) r.push_back(t.d);
     // Distances about their median: a vertical offset left by the rough Helmert is not spread.
-    std::vector<double> sorted = r;
-    const double middle = detail::median_in_place(sorted);
-    for (double& x : r) x = std::fabs(x - middle);
-    return std::max(1.4826 * detail::median_in_place(r), options.min_sigma_cells * cell);
+    return std::max(detail::robust_sigma_in_place(r), options.min_sigma_cells * cell);
   };
   const auto tukey_cost = [&](const std::vector<Term>& terms, double sigma) {
     const double c = options.tukey_sigmas * sigma;
