@@ -394,3 +394,37 @@ TEST_CASE("correlation matching is deterministic for any thread count", "[correl
             r1.flat + r1.no_prediction ==
         points.size());
 }
+
+TEST_CASE("a prediction off the secondary image is outside it, without its local affine", "[correlation_matcher]") {
+  Affine affine;
+  affine.linear = Eigen::Matrix2d::Identity();
+  affine.translation = Eigen::Vector2d(5.0, 5.0);
+  const Scene scene(affine, 200);
+  // Points left of x = 100 map onto the secondary, the others 1000 px beyond its right edge; one
+  // master point is too close to the master's corner for its window.
+  std::vector<Eigen::Vector2d> points;
+  for (int i = 0; i < 20; ++i) points.emplace_back(40.0 + 6.0 * i, 60.0 + 3.0 * i);
+  points.emplace_back(2.0, 2.0);
+  std::size_t calls = 0;
+  const auto transfer = diachron::make_map_transfer([&](const Eigen::Vector2d& p) {
+    ++calls;
+    const Eigen::Vector2d q = scene.truth(p);
+    return p.x() < 100.0 && p.x() > 5.0 ? q : Eigen::Vector2d(q + Eigen::Vector2d(1000.0, 0.0));
+  });
+  CorrelationMatchOptions o = options_with(CorrelationMeasure::orientation);
+  o.threads = 1;
+  const diachron::CorrelationMatchResult r = diachron::correlation_match(scene.master, scene.secondary, points, transfer, o);
+  std::size_t off = 0, on = 0;
+  for (std::size_t i = 0; i + 1 < points.size(); ++i) (points[i].x() < 100.0 ? on : off) += 1;
+  REQUIRE(off > 5);
+  CHECK(r.outside_secondary == off);
+  CHECK(r.outside_master == 1);  // the corner point maps off the secondary too, but its master window leaves first
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const bool off_image = !(points[i].x() < 100.0 && points[i].x() > 5.0);
+    if (off_image) CHECK(r.peaks[i].outcome != diachron::CorrelationOutcome::matched);
+  }
+  CHECK(r.matches.size() > on / 2);
+  // One transfer per point off the image; five for each point on it (the prediction and the four of
+  // its local affine).
+  CHECK(calls == (off + 1) + 5 * on);
+}

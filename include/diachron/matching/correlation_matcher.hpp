@@ -115,7 +115,7 @@ enum class CorrelationOutcome : std::uint8_t {
   matched,            ///< a high, distinct peak inside the search
   no_prediction,      ///< the Transfer (or its local affine) gives nothing at the point
   outside_master,     ///< the master window leaves the master image
-  outside_secondary,  ///< the resampled search region leaves the secondary image
+  outside_secondary,  ///< the resampled search region (or already the prediction) leaves the secondary image
   flat,               ///< the master window has no variance in the measure's channels
   low_score,          ///< the best score is below min_score
   ambiguous,          ///< another peak is within min_margin of the best
@@ -196,22 +196,40 @@ inline bool correlation_inside(int width, int height, const Eigen::Vector2d& c, 
 }
 
 // Samples a side x side patch at c + m * o, o in [-(side/2), side/2]^2 (side odd), averaging
-// k x k sub-samples spread over each master pixel when k > 1.
+// k x k sub-samples spread over each master pixel when k > 1. The products of m with each column's
+// and each row's offsets are taken once: the positions are those of c + m * o to the last bit
+// (the same products and sums), at a fraction of the work.
 template <class T>
 void correlation_sample(const Raster<T>& img, const Eigen::Vector2d& c, const Eigen::Matrix2d& m, int side, int k,
                         std::vector<double>& out) {
   out.resize(static_cast<std::size_t>(side) * static_cast<std::size_t>(side));
   const int first = -(side / 2);
+  const std::size_t n = static_cast<std::size_t>(side) * static_cast<std::size_t>(k);
+  thread_local std::vector<double> col_x, col_y, row_x, row_y;
+  col_x.resize(n);
+  col_y.resize(n);
+  row_x.resize(n);
+  row_y.resize(n);
+  for (int i = 0; i < side; ++i)
+    for (int sub = 0; sub < k; ++sub) {
+      const double o = first + i + (sub + 0.5) / k - 0.5;
+      const std::size_t q = static_cast<std::size_t>(i) * static_cast<std::size_t>(k) + static_cast<std::size_t>(sub);
+      col_x[q] = m(0, 0) * o;
+      col_y[q] = m(1, 0) * o;
+      row_x[q] = m(0, 1) * o;
+      row_y[q] = m(1, 1) * o;
+    }
   std::size_t idx = 0;
   for (int j = 0; j < side; ++j)
     for (int i = 0; i < side; ++i) {
       double sum = 0.0;
-      for (int sy = 0; sy < k; ++sy)
+      for (int sy = 0; sy < k; ++sy) {
+        const std::size_t qy = static_cast<std::size_t>(j) * static_cast<std::size_t>(k) + static_cast<std::size_t>(sy);
         for (int sx = 0; sx < k; ++sx) {
-          const Eigen::Vector2d o(first + i + (sx + 0.5) / k - 0.5, first + j + (sy + 0.5) / k - 0.5);
-          const Eigen::Vector2d p = c + m * o;
-          sum += ncc_bilinear(img, p.x(), p.y());
+          const std::size_t qx = static_cast<std::size_t>(i) * static_cast<std::size_t>(k) + static_cast<std::size_t>(sx);
+          sum += ncc_bilinear(img, c.x() + (col_x[qx] + row_x[qy]), c.y() + (col_y[qx] + row_y[qy]));
         }
+      }
       out[idx++] = sum / (k * k);
     }
 }
@@ -274,6 +292,7 @@ inline double correlation_box(const std::vector<double>& integral, int side, int
 
 struct CorrelationScratch {
   std::vector<double> master_patch, secondary_patch, m0, m1, s0, s1, sum0, sum20, sum1, sum21, f0, f1;
+  std::vector<double> cross;  // one row of shifts (correlation_surface_into)
   double master_var = 0.0;  // sum of squares of the zero-mean master channels
   int channels = 1;
   int k = 1;  // anti-aliasing sub-samples per axis
@@ -339,28 +358,66 @@ CorrelationOutcome correlation_surface_into(const Raster<T>& master, const Eigen
   if (channels == 2) correlation_integrals(s.s1, side, s.sum1, s.sum21);
   const int shifts = 2 * r + 1;
   surface.resize(shifts, shifts);
-  for (int dy = 0; dy < shifts; ++dy)
-    for (int dx = 0; dx < shifts; ++dx) {
-      double cross = 0.0, var = 0.0, scale = 0.0;
-      for (int c = 0; c < channels; ++c) {
-        const std::vector<double>& m = c == 0 ? s.m0 : s.m1;
-        const std::vector<double>& sc = c == 0 ? s.s0 : s.s1;
-        for (int j = 0; j < w; ++j) {
-          const double* mrow = m.data() + static_cast<std::size_t>(j) * static_cast<std::size_t>(w);
-          const double* srow = sc.data() + static_cast<std::size_t>(dy + j) * static_cast<std::size_t>(side) + dx;
-          double acc = 0.0;
-          for (int i = 0; i < w; ++i) acc += mrow[i] * srow[i];
-          cross += acc;
+  // A row of shifts at a time: each shift's sum over a master row takes the products in the order
+  // of the row's pixels, and cross[dx] the rows' sums in channel and row order, so every score is
+  // the sum of the same terms in the same order as one window at a time.
+  s.cross.resize(static_cast<std::size_t>(shifts));
+  double* const cross = s.cross.data();
+  for (int dy = 0; dy < shifts; ++dy) {
+    std::fill(cross, cross + shifts, 0.0);
+    for (int c = 0; c < channels; ++c) {
+      const std::vector<double>& m = c == 0 ? s.m0 : s.m1;
+      const std::vector<double>& sc = c == 0 ? s.s0 : s.s1;
+      for (int j = 0; j < w; ++j) {
+        const double* mrow = m.data() + static_cast<std::size_t>(j) * static_cast<std::size_t>(w);
+        const double* srow = sc.data() + static_cast<std::size_t>(dy + j) * static_cast<std::size_t>(side);
+        // Eight shifts side by side: eight independent sums keep the adder busy where one sum
+        // would wait on its own previous addition at every pixel.
+        int dx = 0;
+        for (; dx + 8 <= shifts; dx += 8) {
+          double a0 = 0.0, a1 = 0.0, a2 = 0.0, a3 = 0.0, a4 = 0.0, a5 = 0.0, a6 = 0.0, a7 = 0.0;
+          const double* sp = srow + dx;
+          for (int i = 0; i < w; ++i) {
+            const double mi = mrow[i];
+            a0 += mi * sp[i];
+            a1 += mi * sp[i + 1];
+            a2 += mi * sp[i + 2];
+            a3 += mi * sp[i + 3];
+            a4 += mi * sp[i + 4];
+            a5 += mi * sp[i + 5];
+            a6 += mi * sp[i + 6];
+            a7 += mi * sp[i + 7];
+          }
+          cross[dx] += a0;
+          cross[dx + 1] += a1;
+          cross[dx + 2] += a2;
+          cross[dx + 3] += a3;
+          cross[dx + 4] += a4;
+          cross[dx + 5] += a5;
+          cross[dx + 6] += a6;
+          cross[dx + 7] += a7;
         }
+        for (; dx < shifts; ++dx) {
+          double a = 0.0;
+          const double* sp = srow + dx;
+          for (int i = 0; i < w; ++i) a += mrow[i] * sp[i];
+          cross[dx] += a;
+        }
+      }
+    }
+    for (int dx = 0; dx < shifts; ++dx) {
+      double var = 0.0, scale = 0.0;
+      for (int c = 0; c < channels; ++c) {
         const double sum = correlation_box(c == 0 ? s.sum0 : s.sum1, side, dx, dy, w);
         const double sum2 = correlation_box(c == 0 ? s.sum20 : s.sum21, side, dx, dy, w);
         var += sum2 - sum * sum / static_cast<double>(n);
         scale += sum2;
       }
       surface(dy, dx) = var > 1e-12 * std::max(1.0, scale)
-                            ? std::clamp(cross / std::sqrt(master_var * var), -1.0, 1.0)
+                            ? std::clamp(cross[dx] / std::sqrt(master_var * var), -1.0, 1.0)
                             : std::numeric_limits<double>::quiet_NaN();
     }
+  }
   return CorrelationOutcome::not_run;
 }
 
@@ -540,6 +597,17 @@ CorrelationMatchResult correlation_match(const Raster<T>& master, const Raster<T
       DIACHRON_CHECK(!b0 || b0->allFinite(), "correlation_match: the transfer sends master point "
                                                  << i << " (" << points[i].transpose()
                                                  << ") to a non-finite position");
+      // A prediction off the secondary image leaves it with any window around it (the window's
+      // corners surround its centre): its local affine, four more transfers, is not needed to say so.
+      if (b0 && !(b0->x() >= 0.0 && b0->y() >= 0.0 && b0->x() <= secondary.width() - 1 &&
+                  b0->y() <= secondary.height() - 1)) {
+        const int half = options.window_px / 2;
+        p.outcome = detail::correlation_inside(master.width(), master.height(), points[i],
+                                               Eigen::Matrix2d::Identity(), half + 1)
+                        ? CorrelationOutcome::outside_secondary
+                        : CorrelationOutcome::outside_master;
+        continue;
+      }
       const std::optional<Eigen::Matrix2d> affine =
           b0 ? local_affine(transfer, points[i], options.affine_step()) : std::nullopt;
       if (!b0 || !affine) {
