@@ -28,6 +28,12 @@
 //   K3 held      epoch 1's K3 held at the SfM's value (EpochFreedom::fixed_intrinsics); the scenes'
 //                SfM has K3 = 0, as the truth, so this holds the true value
 //   K3 P1 P2 held   the same with P1, P2 held too, at the SfM's values: half the truth's
+//   certificate free   epoch 1's cameras start from a calibration certificate instead of the SfM's
+//                values: the true K1-K3, P1, P2, the true focal length + 1.5 px and principal point
+//                + (1, -1) px (each image keeps its SfM's B1, B2 and pose); everything free
+//   certificate prior  the same with f, cx and cy tied to the certificate by priors of 2 px
+//                (EpochFreedom::intrinsic_priors)
+//   certificate held   the same with f, cx and cy held at the certificate's values
 //   colmap       Debian's COLMAP 3.8 bundle_adjuster on the same images and tracks (nearest COLMAP
 //                cameras, no affine term; everything free, so its result is brought back onto epoch
 //                2's fixed orientation by the similarity of its epoch-2 centres onto the input's)
@@ -165,7 +171,8 @@ const char* const kVariants[] = {"rough",          "intra only",   "no affine", 
                                  "e2 camera free", "both free",    "oracle e2 frames", "oracle matches",
                                  "inter sigma 1",  "inter sigma X", "affine per camera", "staged", "cauchy", "cauchy per camera", "shuffled errors",
                                  "peak weighted", "peak weighted X", "K3 held", "K3 P1 P2 held",
-                                 "pair bias removed", "relief bias removed", "colmap"};
+                                 "pair bias removed", "relief bias removed", "certificate free", "certificate prior",
+                                 "certificate held", "colmap"};
 
 // Check points of epoch 1 triangulated with `frames` (epoch-2 frame), errors in world metres.
 CheckPointReport check_points(const Scene& scene, const Frames& frames) {
@@ -537,6 +544,16 @@ int run(int argc, char** argv) {
 
     const Frames e1_moved = transformed_frames(frames1, helmert);
     const CombinedEpoch c1{frames1, e1.tie_point_observations()}, c2{frames2, e2.tie_point_observations()};
+    // Epoch 1 as a calibration certificate would start it (see "certificate free" above).
+    CombinedEpoch c1_certificate = c1;
+    for (Frame<FraserAffine>& frame : c1_certificate.frames) {
+      Camera<FraserAffine>::Params params = e1.camera.params();
+      params[5] = frame.camera().params()[5];  // B1, B2: the scan's, not the lens's
+      params[6] = frame.camera().params()[6];
+      frame = Frame<FraserAffine>(Camera<FraserAffine>(e1.camera.focal() + 1.5, e1.camera.cx() + 1.0, e1.camera.cy() - 1.0,
+                                                       frame.camera().width(), frame.camera().height(), params),
+                                  frame.pose());
+    }
     // Epoch 1's observed pixels (all its images share one camera): its tie points and the master
     // side of the inter-epoch matches.
     std::vector<Vec2> observed;
@@ -659,11 +676,19 @@ int run(int argc, char** argv) {
         if (v == "K3 P1 P2 held") e1_freedom.fixed_intrinsics = {Intrinsic::k3, Intrinsic::p1, Intrinsic::p2};
         options.bundle.epochs = {e1_freedom, EpochFreedom::all_fixed()};
       }
+      if (v == "certificate prior" || v == "certificate held") {
+        EpochFreedom e1_freedom = EpochFreedom::all_free();
+        if (v == "certificate prior")
+          e1_freedom.intrinsic_priors = {{Intrinsic::f, 2.0}, {Intrinsic::cx, 2.0}, {Intrinsic::cy, 2.0}};
+        else
+          e1_freedom.fixed_intrinsics = {Intrinsic::f, Intrinsic::cx, Intrinsic::cy};
+        options.bundle.epochs = {e1_freedom, EpochFreedom::all_fixed()};
+      }
       if (v == "oracle e2 frames")
         for (std::size_t i = 0; i < e2.images.size(); ++i) reference.frames[i] = e2.epoch_frame(i);
       t0 = std::chrono::steady_clock::now();
       const CombinedAdjustmentResult r =
-          combined_adjustment(c1, reference,
+          combined_adjustment(v.rfind("certificate", 0) == 0 ? c1_certificate : c1, reference,
                               v == "oracle matches"    ? true_matches
                               : v == "shuffled errors" ? shuffled_matches
                               : v == "pair bias removed" ? pair_debiased

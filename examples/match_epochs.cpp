@@ -32,8 +32,10 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <exception>
 #include <fstream>
 #include <iostream>
+#include <limits>
 #include <map>
 #include <memory>
 #include <optional>
@@ -122,6 +124,10 @@ const char* kUsage =
     "  --hold LIST                            with --adjust: epoch 1's intrinsics held at their values\n"
     "                                         in cameras.txt, of f,cx,cy,K1,K2,K3,P1,P2 (e.g. K3 on a\n"
     "                                         block too weak to tell it from K1, K2 and f)\n"
+    "  --prior LIST                           with --adjust: epoch 1's intrinsics tied to their values\n"
+    "                                         in cameras.txt with a standard deviation, e.g. from a\n"
+    "                                         calibration certificate: NAME=SIGMA,... of f,cx,cy (px),\n"
+    "                                         K1,K2,K3,P1,P2 (e.g. f=2,cx=1,cy=1); between --hold and free\n"
     "  --one-camera                           with --adjust: epoch 1's images share one camera (the\n"
     "                                         first image's values), e.g. one film camera whose SfM\n"
     "                                         gave each scan its own; without it images share a\n"
@@ -259,6 +265,34 @@ std::vector<Intrinsic> parse_intrinsics(const std::string& list) {
   return out;
 }
 
+// "f=2,cx=1" -> the priors; "" -> none.
+std::vector<IntrinsicPrior> parse_priors(const std::string& list) {
+  std::vector<IntrinsicPrior> out;
+  std::size_t start = 0;
+  while (start < list.size()) {
+    const std::size_t comma = std::min(list.find(',', start), list.size());
+    const std::string item = list.substr(start, comma - start);
+    const std::size_t eq = item.find('=');
+    DIACHRON_CHECK(eq != std::string::npos, "--prior: '" << item << "' is not NAME=SIGMA (e.g. f=2)");
+    const std::string name = item.substr(0, eq);
+    int k = 0;
+    while (k < 8 && name != intrinsic_name(static_cast<Intrinsic>(k))) ++k;
+    DIACHRON_CHECK(k < 8, "--prior: unknown intrinsic '" << name << "' (f, cx, cy, K1, K2, K3, P1, P2)");
+    double sigma = std::numeric_limits<double>::quiet_NaN();
+    try {
+      std::size_t used = 0;
+      sigma = std::stod(item.substr(eq + 1), &used);
+      if (used != item.size() - eq - 1) sigma = std::numeric_limits<double>::quiet_NaN();
+    } catch (const std::exception&) {
+    }
+    DIACHRON_CHECK(std::isfinite(sigma) && sigma > 0.0,
+                   "--prior: the sigma of " << name << " must be a number > 0, got '" << item.substr(eq + 1) << "'");
+    out.push_back({static_cast<Intrinsic>(k), sigma});
+    start = comma + 1;
+  }
+  return out;
+}
+
 // An epoch's name in adjusted/: its folder's name ("/data/1954/" -> "1954").
 std::string folder_name(std::string dir) {
   while (dir.size() > 1 && dir.back() == '/') dir.pop_back();
@@ -369,7 +403,10 @@ std::string adjustment_json(const CombinedAdjustmentResult& a, const std::vector
     }
     o << "}, \"held\": [";
     for (std::size_t k = 0; k < r.cameras[c].held.size(); ++k) o << (k ? ", " : "") << quoted(r.cameras[c].held[k]);
-    o << "], \"epoch\": " << (first < n1 ? 1 : 2) << ", \"images\": [";
+    o << "], \"priors\": {";
+    for (std::size_t k = 0; k < r.cameras[c].priors.size(); ++k)
+      o << (k ? ", " : "") << quoted(r.cameras[c].priors[k]) << ": " << json_number_or_null(r.cameras[c].prior_sigmas[k]);
+    o << "}, \"epoch\": " << (first < n1 ? 1 : 2) << ", \"images\": [";
     for (std::size_t i = 0, k = 0; i < a.image_camera.size(); ++i)
       if (a.image_camera[i] == r.cameras[c].camera) o << (k++ ? ", " : "") << quoted(names[i]);
     o << "], \"distortion_sigma\": ";
@@ -536,6 +573,7 @@ int main(int argc, char** argv) {
   OverlappingPairsOptions overlap_options;
   bool quiet = false, pictures = true, adjust = false, fallback = true, one_camera = false;
   std::string hold;  // --hold: epoch 1's intrinsics held, comma-separated names
+  std::string prior;  // --prior: epoch 1's intrinsic priors, NAME=SIGMA,...
   std::string gcps;  // --gcps: the control-point file
   std::string checks;  // --check-points: the check-point file
   double min_overlap = 0.1;
@@ -586,6 +624,7 @@ int main(int argc, char** argv) {
       else if (a == "--affine") affine = value();
       else if (a == "--one-camera") one_camera = true;
       else if (a == "--hold") hold = value();
+      else if (a == "--prior") prior = value();
       else if (a == "--gcps") gcps = value();
       else if (a == "--check-points") checks = value();
       else if (a == "--quiet") quiet = true;
@@ -606,6 +645,7 @@ int main(int argc, char** argv) {
     DIACHRON_CHECK(adjust || affine.empty(), "--affine needs --adjust");
     DIACHRON_CHECK(adjust || !one_camera, "--one-camera needs --adjust");
     DIACHRON_CHECK(adjust || hold.empty(), "--hold needs --adjust");
+    DIACHRON_CHECK(adjust || prior.empty(), "--prior needs --adjust");
     DIACHRON_CHECK(adjust || gcps.empty(), "--gcps needs --adjust");
     // Read before any work: a malformed file fails fast. Its image names are checked below.
     const std::vector<ControlPointRecord> control = gcps.empty() ? std::vector<ControlPointRecord>{} : read_control_points(gcps);
@@ -614,6 +654,7 @@ int main(int argc, char** argv) {
         checks.empty() ? std::vector<ControlPointRecord>{} : read_control_points(checks);
 #if DIACHRON_MATCH_EPOCHS_ADJUST
     const std::vector<Intrinsic> held = parse_intrinsics(hold);  // before any work: a typo fails fast
+    const std::vector<IntrinsicPrior> priors = parse_priors(prior);
 #endif
     DIACHRON_CHECK(method == "patch" || method == "guided" || method == "correlation",
                    "unknown --method '" << method << "' (correlation, patch or guided)");
@@ -800,9 +841,10 @@ int main(int argc, char** argv) {
       // 5. The combined adjustment, epoch 2 as the reference.
       CombinedAdjustmentOptions adjustment_options;
       if (affine == "camera") adjustment_options.bundle.affine_scope = AffineScope::per_camera;
-      if (!held.empty()) {
+      if (!held.empty() || !priors.empty()) {
         EpochFreedom epoch1 = EpochFreedom::all_free();
         epoch1.fixed_intrinsics = held;
+        epoch1.intrinsic_priors = priors;
         adjustment_options.bundle.epochs = {epoch1, EpochFreedom::all_fixed()};  // the stage's default, K's held
       }
       const CombinedEpoch combined1 = combined_epoch(e1, one_camera);

@@ -485,3 +485,69 @@ TEST_CASE("bundle_adjust: intrinsics held by EpochFreedom::fixed_intrinsics keep
   options.epochs[0].fixed_intrinsics = {static_cast<Intrinsic>(8)};
   CHECK_THROWS_WITH(bundle_adjust(input, options), Catch::Contains("not an intrinsic"));
 }
+
+TEST_CASE("bundle_adjust: EpochFreedom::intrinsic_priors lie between holding and freeing an intrinsic",
+          "[adjustment]") {
+  const test::Block b = test::make_block(/*seed=*/1, /*points=*/1000);
+  const BundleInput input = block_input(b);
+  const Camera<FraserAffine>& truth = b.truth[0].camera();
+  const auto k_before = input.frames[0].camera().params();
+  const double f_before = input.frames[0].camera().focal();
+  const BundleResult free = bundle_adjust(input, reference_fixed());
+  REQUIRE(free.report.success);
+  const double f_free = free.frames[0].camera().focal();
+  REQUIRE(std::abs(f_free - f_before) > 0.5);
+
+  // A prior far tighter than anything the images say is a hold: the radial terms stay at the
+  // SfM's (half the truth's), and the distortion stays as wrong as when they are held.
+  BundleOptions options = reference_fixed();
+  options.epochs[0].intrinsic_priors = {{Intrinsic::k1, 1e-9}, {Intrinsic::k2, 1e-9}, {Intrinsic::k3, 1e-9}};
+  const BundleResult tight = bundle_adjust(input, options);
+  INFO(tight.report.message);
+  REQUIRE(tight.report.success);
+  for (int k = 0; k < 3; ++k) CHECK(std::abs(tight.frames[0].camera().params()[k] - k_before[k]) < 1e-7);
+  CHECK(distortion_difference(tight.frames[0].camera(), truth).max_px > 1.0);
+  const CameraReport& camera = tight.report.cameras[0];
+  CHECK(camera.priors == std::vector<std::string>{"K1", "K2", "K3"});
+  CHECK(camera.prior_sigmas == std::vector<double>{1e-9, 1e-9, 1e-9});
+  CHECK(camera.held.empty());
+  CHECK(tight.report.cameras[1].priors.empty());  // the reference camera is fixed
+
+  // A prior far looser than the images' evidence changes nothing that matters.
+  options.epochs[0].intrinsic_priors = {{Intrinsic::f, 1e6}, {Intrinsic::k1, 1e3}, {Intrinsic::cx, 1e6}};
+  const BundleResult loose = bundle_adjust(input, options);
+  REQUIRE(loose.report.success);
+  CHECK(loose.frames[0].camera().focal() == Approx(f_free).margin(1e-3));
+  CHECK(loose.frames[0].camera().params()[0] == Approx(free.frames[0].camera().params()[0]).margin(1e-7));
+
+  // In between, the oracle is the linear-Gaussian update: a prior of sigma p on f, centred at the
+  // SfM's f0, moves the free solution's f by var / (var + p^2) of the way back to f0, where var is
+  // the free solution's variance of f with the observations' own sigmas (the report's, divided by
+  // sigma0^2). The same prior as the images' own sigma goes half way.
+  const double var = std::pow(free.report.cameras[0].values[0].sigma / free.report.sigma0, 2);
+  for (const double p : {0.5 * std::sqrt(var), std::sqrt(var), 2.0 * std::sqrt(var)}) {
+    options.epochs[0].intrinsic_priors = {{Intrinsic::f, p}};
+    const BundleResult mid = bundle_adjust(input, options);
+    REQUIRE(mid.report.success);
+    const double expected = f_free + var / (var + p * p) * (f_before - f_free);
+    INFO("focal: SfM " << f_before << ", free " << f_free << " (sigma " << std::sqrt(var) << "), prior sigma " << p
+                       << ": " << mid.frames[0].camera().focal() << ", expected " << expected);
+    CHECK(std::abs(mid.frames[0].camera().focal() - expected) < 0.02 * std::abs(f_free - f_before));
+    CHECK(mid.report.cameras[0].values[0].sigma < free.report.cameras[0].values[0].sigma);
+  }
+
+  // A held intrinsic's prior does nothing and is not reported.
+  options.epochs[0].fixed_intrinsics = {Intrinsic::f};
+  const BundleResult held = bundle_adjust(input, options);
+  REQUIRE(held.report.success);
+  CHECK(held.frames[0].camera().focal() == f_before);
+  CHECK(held.report.cameras[0].priors.empty());
+
+  options.epochs[0].fixed_intrinsics.clear();
+  options.epochs[0].intrinsic_priors = {{Intrinsic::f, 0.0}};
+  CHECK_THROWS_WITH(bundle_adjust(input, options), Catch::Contains("sigma > 0"));
+  options.epochs[0].intrinsic_priors = {{Intrinsic::k1, std::numeric_limits<double>::quiet_NaN()}};
+  CHECK_THROWS_WITH(bundle_adjust(input, options), Catch::Contains("sigma > 0"));
+  options.epochs[0].intrinsic_priors = {{static_cast<Intrinsic>(9), 1.0}};
+  CHECK_THROWS_WITH(bundle_adjust(input, options), Catch::Contains("not an intrinsic"));
+}

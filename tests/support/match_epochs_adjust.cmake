@@ -5,13 +5,15 @@
 # inputs unchanged. With 4 of the scene's check points as ground control points (make_scene
 # --control-points, match_epochs --gcps): report.json lists each, used, with its error. The scene's
 # other check points through match_epochs --check-points: their 3D RMS in report.json at least 3
-# times smaller after the adjustment than after the rough co-registration.
+# times smaller after the adjustment than after the rough co-registration. A prior on f (--prior)
+# is listed for epoch 1's camera.
 #   cmake -DMAKE_SCENE=... -DMATCH_EPOCHS=... -DSCORE=... -DWORK=... -P match_epochs_adjust.cmake
 include("${CMAKE_CURRENT_LIST_DIR}/scene_folders.cmake")
 fresh_scene("${WORK}" --image-size 800x600 --images-per-epoch 2x2 --seed 1 --control-points 4)
 folder_fingerprint("${WORK}/scene" before)
 execute_process(COMMAND "${MATCH_EPOCHS}" "${WORK}/scene/e1" "${WORK}/scene/e2" --out "${WORK}/out" --adjust --quiet
                         --gcps "${WORK}/scene/control_points.txt" --check-points "${WORK}/scene/check_points.txt"
+                        --prior f=5
                 RESULT_VARIABLE status OUTPUT_VARIABLE out ERROR_VARIABLE err)
 if(NOT status EQUAL 0)
   message(FATAL_ERROR "match_epochs --adjust exited with ${status}, expected 0\n${out}\n${err}")
@@ -41,6 +43,12 @@ endif()
 # is free, so it has one.
 if(NOT report MATCHES "\"camera\": *0, *\"free\": *true, *\"values\": *{[^}]*}[^\n]*\"distortion_sigma\": *{\"worst_px\": *[0-9.e+-]+, *\"rms_px\"")
   message(FATAL_ERROR "report.json gives epoch 1's camera no distortion_sigma:\n${report}")
+endif()
+# --prior f=5 reaches epoch 1's free camera, and the report lists it; the fixed reference camera has
+# none.
+if(NOT report MATCHES "\"camera\": *0, [^\n]*\"priors\": *{\"f\": *5}"
+   OR NOT report MATCHES "\"camera\": *1, [^\n]*\"priors\": *{}")
+  message(FATAL_ERROR "report.json does not list epoch 1's prior on f (and none for epoch 2):\n${report}")
 endif()
 # Each camera says whose it is: the scene's epochs have one camera each.
 if(NOT report MATCHES "\"camera\": *0, [^\n]*\"epoch\": *1, *\"images\": *[[]\"e1_[^]]*[]]"

@@ -37,6 +37,19 @@ inline const char* intrinsic_name(Intrinsic k) {
   return i >= 0 && i <= static_cast<int>(Intrinsic::p2) ? kNames[i] : "?";
 }
 
+/// What is known of one intrinsic before the adjustment, e.g. from a calibration certificate: the
+/// adjustment adds the observation "the intrinsic equals its initial value" with standard deviation
+/// `sigma`, in the intrinsic's own unit (px for f, cx, cy; the coefficient itself for K1-K3, P1, P2,
+/// docs/camera-model.md). In between holding it (sigma -> 0, EpochFreedom::fixed_intrinsics) and
+/// leaving it free (sigma -> infinity): a block too weak to determine it keeps it near the
+/// certificate, a strong one moves it where the images say. A sigma many orders of magnitude below
+/// what the images determine leaves the covariance too ill-conditioned for ceres::Covariance (the
+/// report then has no sigmas): hold such an intrinsic instead (EpochFreedom::fixed_intrinsics).
+struct IntrinsicPrior {
+  Intrinsic intrinsic = Intrinsic::f;
+  double sigma = 1.0;  ///< > 0, finite
+};
+
 /// Which parameter blocks of the images of one epoch the adjustment may change.
 /// The reference epoch with a known orientation keeps poses and camera fixed, like MicMac's
 /// FrozenPoses; an epoch to be co-registered and self-calibrated frees everything.
@@ -49,6 +62,10 @@ struct EpochFreedom {
   /// the focal length (near-nadir images from one height), so that it does not wander at the
   /// image corners. A camera that serves several epochs holds what any of them holds.
   std::vector<Intrinsic> fixed_intrinsics = {};
+  /// With `camera` free, intrinsics tied to their initial values with a standard deviation (see
+  /// IntrinsicPrior). A camera that serves several epochs takes each epoch's priors; a held
+  /// intrinsic needs none.
+  std::vector<IntrinsicPrior> intrinsic_priors = {};
 
   /// Everything free: co-registration with self-calibration.
   static EpochFreedom all_free() { return {true, true, true}; }
@@ -112,6 +129,15 @@ struct BundleOptions {
         DIACHRON_CHECK(static_cast<int>(k) >= 0 && static_cast<int>(k) <= static_cast<int>(Intrinsic::p2),
                        "BundleOptions::epochs[" << e << "].fixed_intrinsics holds " << static_cast<int>(k)
                                                 << ", not an intrinsic (0 f .. 7 P2)");
+    for (std::size_t e = 0; e < epochs.size(); ++e)
+      for (const IntrinsicPrior& prior : epochs[e].intrinsic_priors) {
+        DIACHRON_CHECK(static_cast<int>(prior.intrinsic) >= 0 && static_cast<int>(prior.intrinsic) <= static_cast<int>(Intrinsic::p2),
+                       "BundleOptions::epochs[" << e << "].intrinsic_priors holds " << static_cast<int>(prior.intrinsic)
+                                                << ", not an intrinsic (0 f .. 7 P2)");
+        DIACHRON_CHECK(prior.sigma > 0.0 && std::isfinite(prior.sigma),
+                       "BundleOptions::epochs[" << e << "]: the prior of " << intrinsic_name(prior.intrinsic)
+                                                << " needs a finite sigma > 0, got " << prior.sigma);
+      }
     triangulation.check();
   }
 };

@@ -73,6 +73,31 @@ struct PointPriorError {
   double inverse_sigma_;
 };
 
+/// Prior of one intrinsic (IntrinsicPrior): (block[index] - value) / sigma, one residual on a
+/// camera block [f, cx, cy, K1, K2, K3, P1, P2].
+struct IntrinsicPriorError {
+  IntrinsicPriorError(int index, double value, double sigma) : index_(index), value_(value), inverse_sigma_(1.0 / sigma) {}
+  template <class T>
+  bool operator()(const T* const camera, T* residual) const {
+    residual[0] = (camera[index_] - T(value_)) * T(inverse_sigma_);
+    return true;
+  }
+  /// Precondition: index in [0, 8), finite value, sigma > 0 (throws diachron::Error).
+  static ceres::CostFunction* create(int index, double value, double sigma) {
+    DIACHRON_CHECK(index >= 0 && index < kFraserCameraBlockSize && std::isfinite(value) && std::isfinite(sigma) &&
+                       sigma > 0.0,
+                   "IntrinsicPriorError: index in [0, 8), a finite value and sigma > 0 needed, got index "
+                       << index << ", sigma " << sigma);
+    return new ceres::AutoDiffCostFunction<IntrinsicPriorError, 1, kFraserCameraBlockSize>(
+        new IntrinsicPriorError(index, value, sigma));
+  }
+
+ private:
+  int index_;
+  double value_;
+  double inverse_sigma_;
+};
+
 /// Which intrinsics a solve frees (staged self-calibration).
 enum class IntrinsicsStage {
   focal_principal_point,  ///< f, cx, cy
@@ -135,6 +160,7 @@ class BundleProblem {
       poses_.push_back(pose_block(input.frames[i].pose()));
       sizes_.emplace_back(input.frames[i].camera().width(), input.frames[i].camera().height());
     }
+    initial_cameras_ = cameras_;
     // A shared block is free only when every epoch whose images use it frees the affine part.
     affine_free_.assign(affine_.size(), true);
     for (std::size_t i = 0; i < n; ++i)
@@ -203,6 +229,20 @@ class BundleProblem {
         for (Intrinsic k : freedom(epoch_[i]).fixed_intrinsics) out.push_back(static_cast<int>(k));
     std::sort(out.begin(), out.end());
     out.erase(std::unique(out.begin(), out.end()), out.end());
+    return out;
+  }
+
+  /// The priors on camera c's intrinsics (EpochFreedom::intrinsic_priors of every epoch it serves,
+  /// each epoch once), as (position in the block, sigma).
+  std::vector<std::pair<int, double>> intrinsic_priors(std::size_t c) const {
+    std::vector<int> epochs;
+    for (std::size_t i = 0; i < image_count(); ++i)
+      if (static_cast<std::size_t>(camera_[i]) == c) epochs.push_back(epoch_[i]);
+    std::sort(epochs.begin(), epochs.end());
+    epochs.erase(std::unique(epochs.begin(), epochs.end()), epochs.end());
+    std::vector<std::pair<int, double>> out;
+    for (int e : epochs)
+      for (const IntrinsicPrior& prior : freedom(e).intrinsic_priors) out.emplace_back(static_cast<int>(prior.intrinsic), prior.sigma);
     return out;
   }
 
@@ -300,16 +340,23 @@ class BundleProblem {
       if (stage == IntrinsicsStage::radial) held.insert(held.end(), {6, 7});
       std::sort(held.begin(), held.end());
       held.erase(std::unique(held.begin(), held.end()), held.end());
-      if (!camera_free(c) || held.size() == static_cast<std::size_t>(kFraserCameraBlockSize))
+      if (!camera_free(c) || held.size() == static_cast<std::size_t>(kFraserCameraBlockSize)) {
         problem.SetParameterBlockConstant(block);
-      else if (!held.empty())
-        problem.SetManifold(block, new ceres::SubsetManifold(kFraserCameraBlockSize, held));
+        continue;
+      }
+      if (!held.empty()) problem.SetManifold(block, new ceres::SubsetManifold(kFraserCameraBlockSize, held));
+      // Priors tie the free intrinsics to the input's values (not to an earlier solve's).
+      for (const auto& [index, sigma] : intrinsic_priors(c)) {
+        if (std::binary_search(held.begin(), held.end(), index)) continue;
+        problem.AddResidualBlock(IntrinsicPriorError::create(index, initial_cameras_[c][static_cast<std::size_t>(index)], sigma),
+                                 nullptr, block);
+      }
     }
     if (!any_pose_fixed && priors < 3) fix_gauge(problem, image_used);
   }
 
-  /// Number of residuals (2 per active observation, 3 per GCP) and of free parameters in
-  /// `problem` (its tangent size): their difference is the redundancy.
+  /// Number of residuals (2 per active observation, 3 per GCP, 1 per intrinsic prior) and of free
+  /// parameters in `problem` (its tangent size): their difference is the redundancy.
   static double redundancy(const ceres::Problem& problem) {
     return static_cast<double>(problem.NumResiduals()) - static_cast<double>(free_parameters(problem));
   }
@@ -363,6 +410,7 @@ class BundleProblem {
   std::vector<int> camera_;
   int epochs_ = 0;
   std::vector<std::array<double, kFraserCameraBlockSize>> cameras_;
+  std::vector<std::array<double, kFraserCameraBlockSize>> initial_cameras_;  // the priors' centres
   std::vector<std::array<double, kAffineBlockSize>> affine_;  ///< per image or per camera
   std::vector<std::size_t> affine_slot_;                       ///< image -> its entry of affine_
   std::vector<bool> affine_free_;                              ///< per entry of affine_

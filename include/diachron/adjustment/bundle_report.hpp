@@ -55,6 +55,11 @@ struct CameraReport {
   /// Of a free camera, the intrinsics held at their initial values ("K3", "P1", ...) by
   /// EpochFreedom::fixed_intrinsics.
   std::vector<std::string> held;
+  /// Of a free camera, the intrinsics tied to their initial values by a prior
+  /// (EpochFreedom::intrinsic_priors), as "f", "K1", ..., with each prior's sigma beside it; a held
+  /// intrinsic's prior is not listed (it has no effect).
+  std::vector<std::string> priors;
+  std::vector<double> prior_sigmas;
   /// A-posteriori covariance of the same 8 values, row-major 8 x 8 (ceres::Covariance scaled by
   /// sigma0^2; px^2 and the parameters' units); empty when the camera was fixed or the covariance
   /// is unavailable. eval/distortion_precision.hpp turns it into the distortion's 1-sigma over the
