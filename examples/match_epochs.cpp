@@ -249,46 +249,51 @@ class PictureImages {
 };
 
 #if DIACHRON_MATCH_EPOCHS_ADJUST
-// "K3,P1,P2" -> the intrinsics (names as report.json gives them); "" -> none.
-std::vector<Intrinsic> parse_intrinsics(const std::string& list) {
-  std::vector<Intrinsic> out;
+// "a,b" -> {"a", "b"}; "" -> none.
+std::vector<std::string> comma_list(const std::string& list) {
+  std::vector<std::string> out;
   std::size_t start = 0;
   while (start < list.size()) {
     const std::size_t comma = std::min(list.find(',', start), list.size());
-    const std::string name = list.substr(start, comma - start);
-    int k = 0;
-    while (k < 8 && name != intrinsic_name(static_cast<Intrinsic>(k))) ++k;
-    DIACHRON_CHECK(k < 8, "--hold: unknown intrinsic '" << name << "' (f, cx, cy, K1, K2, K3, P1, P2)");
-    out.push_back(static_cast<Intrinsic>(k));
+    out.push_back(list.substr(start, comma - start));
     start = comma + 1;
   }
   return out;
 }
 
-// "f=2,cx=1" -> the priors; "" -> none.
+// An intrinsic by the name report.json gives it; `option` names the option in the error.
+Intrinsic intrinsic_named(const std::string& name, const char* option) {
+  int k = 0;
+  while (k < 8 && name != intrinsic_name(static_cast<Intrinsic>(k))) ++k;
+  DIACHRON_CHECK(k < 8, option << ": unknown intrinsic '" << name << "' (f, cx, cy, K1, K2, K3, P1, P2)");
+  return static_cast<Intrinsic>(k);
+}
+
+// --hold "K3,P1,P2" -> the intrinsics.
+std::vector<Intrinsic> parse_intrinsics(const std::string& list) {
+  std::vector<Intrinsic> out;
+  for (const std::string& name : comma_list(list)) out.push_back(intrinsic_named(name, "--hold"));
+  return out;
+}
+
+// --prior "f=2,cx=1" -> the priors.
 std::vector<IntrinsicPrior> parse_priors(const std::string& list) {
   std::vector<IntrinsicPrior> out;
-  std::size_t start = 0;
-  while (start < list.size()) {
-    const std::size_t comma = std::min(list.find(',', start), list.size());
-    const std::string item = list.substr(start, comma - start);
+  for (const std::string& item : comma_list(list)) {
     const std::size_t eq = item.find('=');
     DIACHRON_CHECK(eq != std::string::npos, "--prior: '" << item << "' is not NAME=SIGMA (e.g. f=2)");
-    const std::string name = item.substr(0, eq);
-    int k = 0;
-    while (k < 8 && name != intrinsic_name(static_cast<Intrinsic>(k))) ++k;
-    DIACHRON_CHECK(k < 8, "--prior: unknown intrinsic '" << name << "' (f, cx, cy, K1, K2, K3, P1, P2)");
+    const std::string name = item.substr(0, eq), value = item.substr(eq + 1);
+    const Intrinsic intrinsic = intrinsic_named(name, "--prior");
     double sigma = std::numeric_limits<double>::quiet_NaN();
     try {
       std::size_t used = 0;
-      sigma = std::stod(item.substr(eq + 1), &used);
-      if (used != item.size() - eq - 1) sigma = std::numeric_limits<double>::quiet_NaN();
-    } catch (const std::exception&) {
+      sigma = std::stod(value, &used);
+      if (used != value.size()) sigma = std::numeric_limits<double>::quiet_NaN();  // "2px"
+    } catch (const std::exception&) {  // not a number: the check below says so
     }
     DIACHRON_CHECK(std::isfinite(sigma) && sigma > 0.0,
-                   "--prior: the sigma of " << name << " must be a number > 0, got '" << item.substr(eq + 1) << "'");
-    out.push_back({static_cast<Intrinsic>(k), sigma});
-    start = comma + 1;
+                   "--prior: the sigma of " << name << " must be a number > 0, got '" << value << "'");
+    out.push_back({intrinsic, sigma});
   }
   return out;
 }
