@@ -131,8 +131,9 @@ struct BundleOptions {
                                                 << ", not an intrinsic (0 f .. 7 P2)");
     for (std::size_t e = 0; e < epochs.size(); ++e)
       for (const IntrinsicPrior& prior : epochs[e].intrinsic_priors) {
-        DIACHRON_CHECK(static_cast<int>(prior.intrinsic) >= 0 && static_cast<int>(prior.intrinsic) <= static_cast<int>(Intrinsic::p2),
-                       "BundleOptions::epochs[" << e << "].intrinsic_priors holds " << static_cast<int>(prior.intrinsic)
+        const int k = static_cast<int>(prior.intrinsic);
+        DIACHRON_CHECK(k >= 0 && k <= static_cast<int>(Intrinsic::p2),
+                       "BundleOptions::epochs[" << e << "].intrinsic_priors holds " << k
                                                 << ", not an intrinsic (0 f .. 7 P2)");
         DIACHRON_CHECK(prior.sigma > 0.0 && std::isfinite(prior.sigma),
                        "BundleOptions::epochs[" << e << "]: the prior of " << intrinsic_name(prior.intrinsic)

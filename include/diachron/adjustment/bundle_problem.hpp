@@ -76,7 +76,8 @@ struct PointPriorError {
 /// Prior of one intrinsic (IntrinsicPrior): (block[index] - value) / sigma, one residual on a
 /// camera block [f, cx, cy, K1, K2, K3, P1, P2].
 struct IntrinsicPriorError {
-  IntrinsicPriorError(int index, double value, double sigma) : index_(index), value_(value), inverse_sigma_(1.0 / sigma) {}
+  IntrinsicPriorError(int index, double value, double sigma)
+      : index_(index), value_(value), inverse_sigma_(1.0 / sigma) {}
   template <class T>
   bool operator()(const T* const camera, T* residual) const {
     residual[0] = (camera[index_] - T(value_)) * T(inverse_sigma_);
@@ -242,7 +243,8 @@ class BundleProblem {
     epochs.erase(std::unique(epochs.begin(), epochs.end()), epochs.end());
     std::vector<std::pair<int, double>> out;
     for (int e : epochs)
-      for (const IntrinsicPrior& prior : freedom(e).intrinsic_priors) out.emplace_back(static_cast<int>(prior.intrinsic), prior.sigma);
+      for (const IntrinsicPrior& prior : freedom(e).intrinsic_priors)
+        out.emplace_back(static_cast<int>(prior.intrinsic), prior.sigma);
     return out;
   }
 
@@ -348,8 +350,8 @@ class BundleProblem {
       // Priors tie the free intrinsics to the input's values (not to an earlier solve's).
       for (const auto& [index, sigma] : intrinsic_priors(c)) {
         if (std::binary_search(held.begin(), held.end(), index)) continue;
-        problem.AddResidualBlock(IntrinsicPriorError::create(index, initial_cameras_[c][static_cast<std::size_t>(index)], sigma),
-                                 nullptr, block);
+        const double centre = initial_cameras_[c][static_cast<std::size_t>(index)];
+        problem.AddResidualBlock(IntrinsicPriorError::create(index, centre, sigma), nullptr, block);
       }
     }
     if (!any_pose_fixed && priors < 3) fix_gauge(problem, image_used);

@@ -213,7 +213,7 @@ void correlation_sample(const Raster<T>& img, const Eigen::Vector2d& c, const Ei
   for (int i = 0; i < side; ++i)
     for (int sub = 0; sub < k; ++sub) {
       const double o = first + i + (sub + 0.5) / k - 0.5;
-      const std::size_t q = static_cast<std::size_t>(i) * static_cast<std::size_t>(k) + static_cast<std::size_t>(sub);
+      const std::size_t q = static_cast<std::size_t>(i * k + sub);
       col_x[q] = m(0, 0) * o;
       col_y[q] = m(1, 0) * o;
       row_x[q] = m(0, 1) * o;
@@ -224,9 +224,9 @@ void correlation_sample(const Raster<T>& img, const Eigen::Vector2d& c, const Ei
     for (int i = 0; i < side; ++i) {
       double sum = 0.0;
       for (int sy = 0; sy < k; ++sy) {
-        const std::size_t qy = static_cast<std::size_t>(j) * static_cast<std::size_t>(k) + static_cast<std::size_t>(sy);
+        const std::size_t qy = static_cast<std::size_t>(j * k + sy);
         for (int sx = 0; sx < k; ++sx) {
-          const std::size_t qx = static_cast<std::size_t>(i) * static_cast<std::size_t>(k) + static_cast<std::size_t>(sx);
+          const std::size_t qx = static_cast<std::size_t>(i * k + sx);
           sum += ncc_bilinear(img, c.x() + (col_x[qx] + row_x[qy]), c.y() + (col_y[qx] + row_y[qy]));
         }
       }
