@@ -279,14 +279,11 @@ inline BundleResult bundle_adjust(const BundleInput& input, const BundleOptions&
         s[static_cast<std::size_t>(k)] = std::numeric_limits<double>::quiet_NaN();
         if (cam.free) cam.held.push_back(intrinsic_name(static_cast<Intrinsic>(k)));
       }
-      if (cam.free) {
-        const std::vector<int> held = problem.held_intrinsics(c);
+      if (cam.free)
         for (const auto& [k, sigma] : problem.intrinsic_priors(c)) {
-          if (std::binary_search(held.begin(), held.end(), k)) continue;
           cam.priors.push_back(intrinsic_name(static_cast<Intrinsic>(k)));
           cam.prior_sigmas.push_back(sigma);
         }
-      }
       for (int k = 0; k < kFraserCameraBlockSize; ++k) {
         const auto uk = static_cast<std::size_t>(k);
         cam.values.push_back({intrinsic_name(static_cast<Intrinsic>(k)), before_camera[uk], problem.camera_block(c)[uk], s[uk]});

@@ -124,12 +124,11 @@ struct BundleOptions {
     DIACHRON_CHECK(max_iterations >= 1, "BundleOptions::max_iterations must be >= 1");
     DIACHRON_CHECK(function_tolerance > 0.0, "BundleOptions::function_tolerance must be > 0");
     DIACHRON_CHECK(num_threads >= 1, "BundleOptions::num_threads must be >= 1");
-    for (std::size_t e = 0; e < epochs.size(); ++e)
+    for (std::size_t e = 0; e < epochs.size(); ++e) {
       for (Intrinsic k : epochs[e].fixed_intrinsics)
         DIACHRON_CHECK(static_cast<int>(k) >= 0 && static_cast<int>(k) <= static_cast<int>(Intrinsic::p2),
                        "BundleOptions::epochs[" << e << "].fixed_intrinsics holds " << static_cast<int>(k)
                                                 << ", not an intrinsic (0 f .. 7 P2)");
-    for (std::size_t e = 0; e < epochs.size(); ++e)
       for (const IntrinsicPrior& prior : epochs[e].intrinsic_priors) {
         const int k = static_cast<int>(prior.intrinsic);
         DIACHRON_CHECK(k >= 0 && k <= static_cast<int>(Intrinsic::p2),
@@ -139,6 +138,7 @@ struct BundleOptions {
                        "BundleOptions::epochs[" << e << "]: the prior of " << intrinsic_name(prior.intrinsic)
                                                 << " needs a finite sigma > 0, got " << prior.sigma);
       }
+    }
     triangulation.check();
   }
 };

@@ -221,30 +221,38 @@ class BundleProblem {
     return any;
   }
 
-  /// Positions in camera c's block [f, cx, cy, K1-K3, P1, P2] that any epoch it serves holds at
-  /// their initial values (EpochFreedom::fixed_intrinsics), ascending, each once.
-  std::vector<int> held_intrinsics(std::size_t c) const {
+  /// The epochs whose images use camera c, ascending, each once.
+  std::vector<int> camera_epochs(std::size_t c) const {
     std::vector<int> out;
     for (std::size_t i = 0; i < image_count(); ++i)
-      if (static_cast<std::size_t>(camera_[i]) == c)
-        for (Intrinsic k : freedom(epoch_[i]).fixed_intrinsics) out.push_back(static_cast<int>(k));
+      if (static_cast<std::size_t>(camera_[i]) == c) out.push_back(epoch_[i]);
     std::sort(out.begin(), out.end());
     out.erase(std::unique(out.begin(), out.end()), out.end());
     return out;
   }
 
-  /// The priors on camera c's intrinsics (EpochFreedom::intrinsic_priors of every epoch it serves,
-  /// each epoch once), as (position in the block, sigma).
+  /// Positions in camera c's block [f, cx, cy, K1-K3, P1, P2] that any epoch it serves holds at
+  /// their initial values (EpochFreedom::fixed_intrinsics), ascending, each once.
+  std::vector<int> held_intrinsics(std::size_t c) const {
+    std::vector<int> out;
+    for (int e : camera_epochs(c))
+      for (Intrinsic k : freedom(e).fixed_intrinsics) out.push_back(static_cast<int>(k));
+    std::sort(out.begin(), out.end());
+    out.erase(std::unique(out.begin(), out.end()), out.end());
+    return out;
+  }
+
+  /// The priors on camera c's intrinsics that take effect: EpochFreedom::intrinsic_priors of every
+  /// epoch it serves (each epoch once), but none on a held intrinsic (held_intrinsics), as
+  /// (position in the block, sigma).
   std::vector<std::pair<int, double>> intrinsic_priors(std::size_t c) const {
-    std::vector<int> epochs;
-    for (std::size_t i = 0; i < image_count(); ++i)
-      if (static_cast<std::size_t>(camera_[i]) == c) epochs.push_back(epoch_[i]);
-    std::sort(epochs.begin(), epochs.end());
-    epochs.erase(std::unique(epochs.begin(), epochs.end()), epochs.end());
+    const std::vector<int> held = held_intrinsics(c);
     std::vector<std::pair<int, double>> out;
-    for (int e : epochs)
-      for (const IntrinsicPrior& prior : freedom(e).intrinsic_priors)
-        out.emplace_back(static_cast<int>(prior.intrinsic), prior.sigma);
+    for (int e : camera_epochs(c))
+      for (const IntrinsicPrior& prior : freedom(e).intrinsic_priors) {
+        const int k = static_cast<int>(prior.intrinsic);
+        if (!std::binary_search(held.begin(), held.end(), k)) out.emplace_back(k, prior.sigma);
+      }
     return out;
   }
 
@@ -347,7 +355,8 @@ class BundleProblem {
         continue;
       }
       if (!held.empty()) problem.SetManifold(block, new ceres::SubsetManifold(kFraserCameraBlockSize, held));
-      // Priors tie the free intrinsics to the input's values (not to an earlier solve's).
+      // Priors tie the free intrinsics to the input's values (not to an earlier solve's); not those
+      // a stage holds.
       for (const auto& [index, sigma] : intrinsic_priors(c)) {
         if (std::binary_search(held.begin(), held.end(), index)) continue;
         const double centre = initial_cameras_[c][static_cast<std::size_t>(index)];

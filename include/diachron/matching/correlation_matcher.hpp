@@ -195,17 +195,26 @@ inline bool correlation_inside(int width, int height, const Eigen::Vector2d& c, 
   return true;
 }
 
+// The products of a patch's affine with each column's and each row's sub-sample offsets
+// (correlation_sample), kept between calls so that their storage is allocated once per task.
+struct CorrelationOffsets {
+  std::vector<double> col_x, col_y, row_x, row_y;
+};
+
 // Samples a side x side patch at c + m * o, o in [-(side/2), side/2]^2 (side odd), averaging
 // k x k sub-samples spread over each master pixel when k > 1. The products of m with each column's
-// and each row's offsets are taken once: the positions are those of c + m * o to the last bit
-// (the same products and sums), at a fraction of the work.
+// and each row's offsets are taken once (into `offsets`): the positions are those of c + m * o to
+// the last bit (the same products and sums), at a fraction of the work.
 template <class T>
 void correlation_sample(const Raster<T>& img, const Eigen::Vector2d& c, const Eigen::Matrix2d& m, int side, int k,
-                        std::vector<double>& out) {
+                        CorrelationOffsets& offsets, std::vector<double>& out) {
   out.resize(static_cast<std::size_t>(side) * static_cast<std::size_t>(side));
   const int first = -(side / 2);
   const std::size_t n = static_cast<std::size_t>(side) * static_cast<std::size_t>(k);
-  thread_local std::vector<double> col_x, col_y, row_x, row_y;
+  std::vector<double>& col_x = offsets.col_x;
+  std::vector<double>& col_y = offsets.col_y;
+  std::vector<double>& row_x = offsets.row_x;
+  std::vector<double>& row_y = offsets.row_y;
   col_x.resize(n);
   col_y.resize(n);
   row_x.resize(n);
@@ -293,6 +302,7 @@ inline double correlation_box(const std::vector<double>& integral, int side, int
 struct CorrelationScratch {
   std::vector<double> master_patch, secondary_patch, m0, m1, s0, s1, sum0, sum20, sum1, sum21, f0, f1;
   std::vector<double> cross;  // one row of shifts (correlation_surface_into)
+  CorrelationOffsets offsets;  // correlation_sample's
   double master_var = 0.0;  // sum of squares of the zero-mean master channels
   int channels = 1;
   int k = 1;  // anti-aliasing sub-samples per axis
@@ -328,8 +338,8 @@ CorrelationOutcome correlation_surface_into(const Raster<T>& master, const Eigen
   if (!correlation_inside(secondary.width(), secondary.height(), b0, affine, half + r + 1 + (k > 1 ? 0.5 : 0.0)))
     return CorrelationOutcome::outside_secondary;
   s.k = k;
-  correlation_sample(master, a, identity, master_side, 1, s.master_patch);
-  correlation_sample(secondary, b0, affine, secondary_side, k, s.secondary_patch);
+  correlation_sample(master, a, identity, master_side, 1, s.offsets, s.master_patch);
+  correlation_sample(secondary, b0, affine, secondary_side, k, s.offsets, s.secondary_patch);
   const int channels = correlation_channels(o.measure, s.master_patch, master_side, s.m0, s.m1);
   correlation_channels(o.measure, s.secondary_patch, secondary_side, s.s0, s.s1);
   const int w = o.window_px, side = secondary_side - 2;
@@ -489,7 +499,7 @@ double correlation_score_at(const Raster<T>& secondary, const Eigen::Vector2d& c
   if (!correlation_inside(secondary.width(), secondary.height(), centre, affine,
                           o.window_px / 2 + 1 + (s.k > 1 ? 0.5 : 0.0)))
     return nan;
-  correlation_sample(secondary, centre, affine, side, s.k, s.secondary_patch);
+  correlation_sample(secondary, centre, affine, side, s.k, s.offsets, s.secondary_patch);
   correlation_channels(o.measure, s.secondary_patch, side, s.f0, s.f1);
   const double n = static_cast<double>(s.f0.size());
   double cross = 0.0, var = 0.0, scale = 0.0;

@@ -28,7 +28,7 @@
 #include <diachron/core/error.hpp>
 #include <diachron/geometry/helmert3.hpp>
 #include <diachron/terrain/dsm.hpp>
-#include <diachron/terrain/surface_alignment.hpp>  // detail::robust_sigma_in_place
+#include <diachron/terrain/surface_alignment.hpp>  // detail::robust_sigma_in_place, sampling_stride
 
 namespace diachron {
 
@@ -65,16 +65,6 @@ struct SurfaceAgreement {
   double noise_ratio = std::numeric_limits<double>::infinity();
 };
 
-namespace detail {
-
-// Grid stride that takes at most `max_points` of width x height cells.
-inline int sampling_stride(int width, int height, int max_points) {
-  const double cells = static_cast<double>(width) * static_cast<double>(height);
-  return std::max(1, static_cast<int>(std::ceil(std::sqrt(cells / static_cast<double>(max_points)))));
-}
-
-}  // namespace detail
-
 /// Cell-scale noise of a DSM's heights, in its height units: the robust sigma of z(x, y) minus the
 /// mean of its four neighbours over the cells where all five are valid, divided by sqrt(1.25) so
 /// that white noise of sigma s gives s. On real terrain it also holds the relief between
@@ -85,7 +75,7 @@ inline double dsm_cell_noise(const Dsm& dsm, const SurfaceAgreementOptions& opti
   options.check();
   const int w = dsm.width(), h = dsm.height();
   if (w < 3 || h < 3) return std::numeric_limits<double>::quiet_NaN();
-  const int stride = detail::sampling_stride(w - 2, h - 2, options.max_points);
+  const int stride = detail::sampling_stride(static_cast<double>(w - 2) * (h - 2), options.max_points);
   const auto& z = dsm.heights();
   std::vector<double> residuals;
   for (int y = 1; y + 1 < h; y += stride)
@@ -112,7 +102,8 @@ inline SurfaceAgreement surface_agreement(const Dsm& master, const Dsm& secondar
                      epoch2_from_epoch1.rotation.allFinite() && epoch2_from_epoch1.translation.allFinite(),
                  "surface_agreement needs a finite Helmert with a positive scale");
   SurfaceAgreement out;
-  const int stride = detail::sampling_stride(master.width(), master.height(), options.max_points);
+  const int stride =
+      detail::sampling_stride(static_cast<double>(master.width()) * master.height(), options.max_points);
   std::vector<double> residuals;
   for (int y = stride / 2; y < master.height(); y += stride)
     for (int x = stride / 2; x < master.width(); x += stride) {

@@ -119,6 +119,12 @@ inline double median_in_place(std::vector<double>& v) {
   return *mid;
 }
 
+// Grid stride that takes at most about `max_points` of `cells` cells (every stride-th cell in both
+// directions).
+inline int sampling_stride(double cells, int max_points) {
+  return std::max(1, static_cast<int>(std::ceil(std::sqrt(cells / static_cast<double>(max_points)))));
+}
+
 // Robust sigma of `v` about its median: 1.4826 x the median absolute deviation (v is reordered and
 // overwritten); NaN when empty.
 inline double robust_sigma_in_place(std::vector<double>& v) {
@@ -169,8 +175,7 @@ inline SurfaceAlignmentResult refine_surface_alignment(const Dsm& master, const 
   };
 
   // Master cells on a regular grid.
-  const double valid = static_cast<double>(master.statistics().count);
-  const int stride = std::max(1, static_cast<int>(std::ceil(std::sqrt(valid / options.max_points))));
+  const int stride = detail::sampling_stride(static_cast<double>(master.statistics().count), options.max_points);
   std::vector<Eigen::Vector3d> cells;
   for (int y = 0; y < master.height(); y += stride)
     for (int x = 0; x < master.width(); x += stride)
