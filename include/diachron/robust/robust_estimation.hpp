@@ -1,8 +1,9 @@
 #pragma once
 /// @file
 /// One-call robust estimation of the two transforms of the paper: the 2D similarity of the rough
-/// co-registration and the 3D Helmert of the precise matching, with the library's default RANSAC
-/// composition (LO-MSAC, exact adaptive stopping, final refit).
+/// co-registration and the 3D Helmert of the precise matching, and of the 2D homography between
+/// orthophotos without DSMs, with the library's default RANSAC composition (LO-MSAC, exact
+/// adaptive stopping, final refit).
 
 #include <cmath>
 #include <cstddef>
@@ -12,6 +13,8 @@
 #include <diachron/core/types.hpp>
 #include <diachron/geometry/helmert3.hpp>
 #include <diachron/geometry/helmert3_estimator.hpp>
+#include <diachron/geometry/homography.hpp>
+#include <diachron/geometry/homography2_estimator.hpp>
 #include <diachron/geometry/similarity2.hpp>
 #include <diachron/geometry/similarity2_estimator.hpp>
 #include <diachron/robust/ransac.hpp>
@@ -74,6 +77,20 @@ inline RansacReport<Helmert3> ransac_helmert3(const std::vector<PointPair3>& dat
                                               const Helmert3EstimatorOptions& estimator = {}) {
   detail::check_finite_pairs(data, "ransac_helmert3");
   return DefaultRansac<Helmert3Estimator>(options, Helmert3Estimator(estimator)).run(data);
+}
+
+/// Robust 2D homography `[target, 1] ~ H [source, 1]` from point pairs: the map between
+/// orthophotos of two epochs when there is no DSM (Homography2Estimator: exact 4-point samples,
+/// weighted normalised DLT refit, collinear and orientation-flipping samples refused).
+///
+/// Same composition and conventions as ransac_similarity2(); residuals are the transfer error
+/// |target - H(source)| and options.threshold is in target units (px).
+/// @throws diachron::Error for invalid options or a non-finite coordinate (naming its index).
+inline RansacReport<Homography2> ransac_homography2(
+    const std::vector<PointPair2>& data, const RansacOptions& options,
+    const Homography2EstimatorOptions& estimator = {}) {
+  detail::check_finite_pairs(data, "ransac_homography2");
+  return DefaultRansac<Homography2Estimator>(options, Homography2Estimator(estimator)).run(data);
 }
 
 }  // namespace diachron
