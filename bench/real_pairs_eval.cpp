@@ -428,10 +428,25 @@ Quantiles quantiles(std::vector<double> v) {
   return q;
 }
 
+/// The min_score thresholds the matches are also counted at (peak score >= each).
+constexpr double kMinScores[] = {0.0, 0.1, 0.2, 0.3, 0.5};
+constexpr std::size_t kNumMinScores = std::size(kMinScores);
+
 struct MeasureStats {
   CorrelationMeasure measure{};
   Quantiles at_reference, at_random;
   std::size_t grid_points = 0, matched = 0, within = 0;
+  /// Per kMinScores threshold: the matches whose peak score reaches it, and those within 3 px.
+  std::array<std::size_t, kNumMinScores> kept_at{}, within_at{};
+
+  void count(const PointMatch& m, bool within_3px) {
+    within += within_3px ? 1 : 0;
+    for (std::size_t t = 0; t < kNumMinScores; ++t)
+      if (m.score >= kMinScores[t]) {
+        ++kept_at[t];
+        within_at[t] += within_3px ? 1 : 0;
+      }
+  }
 };
 
 /// Up to `max_points` of `all`, taken evenly (every k-th).
@@ -444,11 +459,12 @@ std::vector<Eigen::Vector2d> evenly(const std::vector<Eigen::Vector2d>& all, std
 
 /// For each point: the best score within +-2 master px of its position through `reference` (the
 /// correct position, up to the reference's error), and of a random position whose every offset from
-/// it exceeds `far_px` secondary px (twice the window at the pair's scale). NaN where a window leaves
-/// an image or the reference gives nothing. Appended to `at_reference` and `at_random`.
-template <class Transfer>
+/// it exceeds `far_px` secondary px (twice the window at the pair's scale); both windows resampled
+/// through the local affine of `shape` (smooth, unlike a truth traced on trees and roofs). NaN where
+/// a window leaves an image or a transfer gives nothing. Appended to `at_reference` and `at_random`.
+template <class Transfer, class ShapeTransfer>
 void peak_scores(const Raster<std::uint8_t>& master, const Raster<std::uint8_t>& secondary,
-                 const std::vector<Eigen::Vector2d>& points, const Transfer& reference,
+                 const std::vector<Eigen::Vector2d>& points, const Transfer& reference, const ShapeTransfer& shape,
                  const CorrelationMatchOptions& match, double far_px, std::size_t threads, std::uint64_t seed,
                  std::vector<double>& at_reference, std::vector<double>& at_random) {
   CorrelationMatchOptions near = match;
@@ -465,7 +481,7 @@ void peak_scores(const Raster<std::uint8_t>& master, const Raster<std::uint8_t>&
   parallel_for(points.size(), threads, [&](std::size_t k) {
     const Eigen::Vector2d& a = points[k];
     const std::optional<Eigen::Vector2d> b = reference(a);
-    const std::optional<Eigen::Matrix2d> affine = local_affine(reference, a, match.affine_step());
+    const std::optional<Eigen::Matrix2d> affine = local_affine(shape, a, match.affine_step());
     if (!b || !affine) return;
     ref[k] = best(correlation_surface(master, a, secondary, *b, *affine, near));
     RandomStream random(seed, 0x57a7'0000ULL + k);
@@ -493,7 +509,8 @@ MeasureStats peak_statistics(const PairData& p, const Homography2& reference, Co
   const CorrelationSetting s = correlation_setting(measure, true, p.threads);
   const std::vector<Eigen::Vector2d> points = evenly(grid_points(p.master, s.interest), max_points);
   std::vector<double> ref, rnd;
-  peak_scores(p.master, p.secondary, points, make_map_transfer(reference), s.match,
+  const auto transfer = make_map_transfer(reference);
+  peak_scores(p.master, p.secondary, points, transfer, transfer, s.match,
               2.0 * s.match.window_px * p.rough.scale, p.threads, seed, ref, rnd);
   st.at_reference = quantiles(ref);
   st.at_random = quantiles(rnd);
@@ -501,7 +518,7 @@ MeasureStats peak_statistics(const PairData& p, const Homography2& reference, Co
   st.matched = composition_row.matches.size();
   for (const PointMatch& m : composition_row.matches) {
     const std::optional<Eigen::Vector2d> b = reference(m.a);
-    if (b && (*b - m.b).norm() <= kInlierPx) ++st.within;
+    st.count(m, b && (*b - m.b).norm() <= kInlierPx);
   }
   return st;
 }
@@ -510,8 +527,8 @@ MeasureStats peak_statistics(const PairData& p, const Homography2& reference, Co
 /// first_seed ...), against the true transfer (eval/match_truth.hpp): on up to `pairs_per_seed`
 /// overlapping image pairs per seed, the peak scores at the true and at random positions; and
 /// correlation_match (the composition's settings) on the same points, predicted through the epoch
-/// DSMs and the TRUE Helmert (a perfect rough co-registration), its matches counted within 3 px of
-/// the truth. One MeasureStats per measure, over all pairs.
+/// DSMs and the TRUE Helmert (a perfect rough co-registration), its matches that the truth can score
+/// counted within 3 px of the truth. One MeasureStats per measure, over all pairs.
 std::vector<MeasureStats> decades_statistics(int seeds, std::uint64_t first_seed, std::size_t pairs_per_seed,
                                              std::size_t max_points, std::size_t threads, std::uint64_t seed) {
   std::vector<MeasureStats> out;
@@ -561,14 +578,16 @@ std::vector<MeasureStats> decades_statistics(int seeds, std::uint64_t first_seed
       for (std::size_t k = 0; k < std::size(kMeasures); ++k) {
         const CorrelationSetting s = correlation_setting(kMeasures[k], true, threads);
         const std::vector<Eigen::Vector2d> points = evenly(grid_points(master, s.interest), max_points);
-        peak_scores(master, secondary, points, true_transfer, s.match, 2.0 * s.match.window_px * scale, threads, seed,
-                    ref[k], rnd[k]);
+        peak_scores(master, secondary, points, true_transfer, predicted, s.match, 2.0 * s.match.window_px * scale,
+                    threads, seed, ref[k], rnd[k]);
         const CorrelationMatchResult r = correlation_match(master, secondary, points, predicted, s.match);
         out[k].grid_points += points.size();
-        out[k].matched += r.matches.size();
         for (const PointMatch& m : r.matches) {
+          // Only the matches the truth can score (not on changed, occluded or unseen ground).
           const std::optional<Eigen::Vector2d> b = true_transfer(m.a);
-          if (b && (*b - m.b).norm() <= kInlierPx) ++out[k].within;
+          if (!b) continue;
+          ++out[k].matched;
+          out[k].count(m, (*b - m.b).norm() <= kInlierPx);
         }
       }
     }
@@ -690,6 +709,22 @@ std::string verdict(const MethodRow& r) {
 
 /// JSON text of a number, null when it is not finite (JSON has no NaN).
 std::string json_value(double v) { return std::isfinite(v) ? json_number(v) : std::string("null"); }
+
+std::string stats_json(const MeasureStats& s) {
+  const auto q = [](const Quantiles& v) {
+    return "[" + json_value(v.p10) + ", " + json_value(v.p50) + ", " + json_value(v.p90) + "]";
+  };
+  std::ostringstream out;
+  out << "{\"measure\": " << json_quoted(to_string(s.measure)) << ", \"at_reference\": " << q(s.at_reference)
+      << ", \"at_random\": " << q(s.at_random) << ", \"points\": " << s.at_reference.n
+      << ", \"grid_points\": " << s.grid_points << ", \"matched\": " << s.matched << ", \"within_3px\": " << s.within
+      << ", \"by_min_score\": [";
+  for (std::size_t t = 0; t < kNumMinScores; ++t)
+    out << (t ? ", " : "") << "{\"min_score\": " << json_number(kMinScores[t]) << ", \"kept\": " << s.kept_at[t]
+        << ", \"within_3px\": " << s.within_at[t] << "}";
+  out << "]}";
+  return out.str();
+}
 
 std::string quantile_text(const Quantiles& q) {
   return fixed(q.p10, 2) + " / " + fixed(q.p50, 2) + " / " + fixed(q.p90, 2);
@@ -835,16 +870,7 @@ int main(int argc, char** argv) {
              << ", \"seconds\": " << json_number(r.seconds) << "}";
       }
       json << "], \"reference\": " << (best ? json_quoted(best->name) : std::string("null")) << ", \"statistics\": [";
-      for (std::size_t k = 0; k < stats.size(); ++k) {
-        const MeasureStats& s = stats[k];
-        const auto q = [](const Quantiles& v) {
-          return "[" + json_value(v.p10) + ", " + json_value(v.p50) + ", " + json_value(v.p90) + "]";
-        };
-        json << (k ? ", " : "") << "{\"measure\": " << json_quoted(to_string(s.measure))
-             << ", \"at_reference\": " << q(s.at_reference) << ", \"at_random\": " << q(s.at_random)
-             << ", \"points\": " << s.at_reference.n << ", \"grid_points\": " << s.grid_points
-             << ", \"matched\": " << s.matched << ", \"within_3px\": " << s.within << "}";
-      }
+      for (std::size_t k = 0; k < stats.size(); ++k) json << (k ? ", " : "") << stats_json(stats[k]);
       json << "]}";
     }
     json << "]";
@@ -857,13 +883,7 @@ int main(int argc, char** argv) {
       all_stats.emplace_back(label.str(), d);
       json << ", \"decades\": {\"seeds\": " << args.decades << ", \"first_seed\": " << args.decades_first_seed
            << ", \"statistics\": [";
-      for (std::size_t k = 0; k < d.size(); ++k)
-        json << (k ? ", " : "") << "{\"measure\": " << json_quoted(to_string(d[k].measure))
-             << ", \"at_reference\": [" << json_value(d[k].at_reference.p10) << ", " << json_value(d[k].at_reference.p50)
-             << ", " << json_value(d[k].at_reference.p90) << "], \"at_random\": [" << json_value(d[k].at_random.p10)
-             << ", " << json_value(d[k].at_random.p50) << ", " << json_value(d[k].at_random.p90)
-             << "], \"points\": " << d[k].at_reference.n << ", \"grid_points\": " << d[k].grid_points
-             << ", \"matched\": " << d[k].matched << ", \"within_3px\": " << d[k].within << "}";
+      for (std::size_t k = 0; k < d.size(); ++k) json << (k ? ", " : "") << stats_json(d[k]);
       json << "]}";
     }
     json << "}\n";
@@ -881,6 +901,20 @@ int main(int argc, char** argv) {
                     std::to_string(s.within) + " (" + fixed(s.matched ? 100.0 * s.within / s.matched : 0.0, 1) + " %)"});
         }
       side.print(std::cout);
+      std::printf("\n## The composition's matches by peak score (min_score): kept, within 3 px (share)\n\n");
+      std::vector<std::string> header = {"measure", "data"};
+      for (const double t : kMinScores) header.push_back(">= " + fixed(t, 1));
+      bench::Table by_score(header);
+      for (std::size_t k = 0; k < std::size(kMeasures); ++k)
+        for (const auto& [label, st] : all_stats) {
+          const MeasureStats& s = st[k];
+          std::vector<std::string> cells = {to_string(s.measure), label};
+          for (std::size_t t = 0; t < kNumMinScores; ++t)
+            cells.push_back(std::to_string(s.kept_at[t]) + ", " + std::to_string(s.within_at[t]) + " (" +
+                            fixed(s.kept_at[t] ? 100.0 * s.within_at[t] / s.kept_at[t] : 0.0, 0) + " %)");
+          by_score.add(cells);
+        }
+      by_score.print(std::cout);
     }
     if (!args.json.empty()) {
       std::FILE* f = std::fopen(args.json.c_str(), "w");
