@@ -5,11 +5,12 @@
 ///
 ///   make_scene OUT_DIR [--preset plain|decades] [--seed N] [--dem PATH] [--images-per-epoch RxC]
 ///              [--image-size WxH] [--epochs N] [--check-points N] [--dome M] [--offset X,Y]
-///              [--scan-frame PX] [--control-points N] [--threads N]
+///              [--scan-frame PX] [--control-points N] [--ortho-reference] [--threads N]
 ///
 /// `--preset decades` starts from SceneOptions::decades_apart() and the other flags apply on top of
 /// it, so that `make_scene OUT --preset decades --seed N` writes exactly the scene generate_scene()
-/// makes from decades_apart() with seed N.
+/// makes from decades_apart() with seed N. `--ortho-reference` then delivers the last epoch as a
+/// true orthophoto and its true surface (synth/ortho_reference.hpp) instead of images and a model.
 
 #include <chrono>
 #include <ctime>
@@ -28,6 +29,7 @@
 #include <diachron/io/dsm_reproject.hpp>
 #include <diachron/io/folders.hpp>
 #include <diachron/io/geotiff.hpp>
+#include <diachron/synth/ortho_reference.hpp>
 #include <diachron/synth/scan_frame.hpp>
 #include <diachron/synth/scene.hpp>
 #include <diachron/synth/scene_io.hpp>
@@ -56,6 +58,11 @@ constexpr const char* kUsage =
     "                           first epoch, the first N and the others, positions in the last epoch's\n"
     "                           frame (sigma 0.1 m), their true pixels; for match_epochs --gcps and\n"
     "                           --check-points. score_epochs still scores all (default 0: none)\n"
+    "  --ortho-reference        deliver the last epoch as a national reference is: OUT/<epoch>/ortho.tif, a\n"
+    "                           true orthophoto (8-bit grey GeoTIFF rendered straight down at that epoch's\n"
+    "                           GSD, north-up in its frame, over its images' footprints) and dsm.tif, its\n"
+    "                           true surface in that frame; no images nor COLMAP model (older epochs as\n"
+    "                           without the flag)\n"
     "  --threads N              worker threads, 0 = all cores (default 0)\n";
 
 // Flags that are not given leave the preset's value alone.
@@ -70,6 +77,7 @@ struct Arguments {
   std::optional<std::pair<double, double>> offset;
   int scan_frame_px = 0;
   int control_points = 0;
+  bool ortho_reference = false;
   std::size_t threads = 0;
 };
 
@@ -112,6 +120,10 @@ Arguments parse(int argc, char** argv) {
     if (arg == "-h" || arg == "--help") {
       std::cout << kUsage;
       std::exit(0);
+    }
+    if (arg == "--ortho-reference") {
+      a.ortho_reference = true;
+      continue;
     }
     if (arg.rfind("--", 0) == 0) {
       if (i + 1 >= args.size()) usage_error("missing value for " + arg);
@@ -164,6 +176,7 @@ Arguments parse(int argc, char** argv) {
   }
   if (a.out_dir.empty()) usage_error("missing OUT_DIR");
   if (a.preset == "decades" && a.epochs && *a.epochs != 2) usage_error("--preset decades has two epochs");
+  if (a.ortho_reference && a.epochs && *a.epochs < 2) usage_error("--ortho-reference needs at least two epochs");
   return a;
 }
 
@@ -269,6 +282,11 @@ int main(int argc, char** argv) {
     const auto t0 = std::chrono::steady_clock::now();
     const std::clock_t c0 = std::clock();
     diachron::Scene scene = diachron::generate_scene(options);
+    if (args.ortho_reference) {
+      diachron::OrthoReferenceOptions ortho;
+      ortho.threads = args.threads;
+      diachron::make_ortho_reference(scene, options, scene.epochs.size() - 1, ortho);
+    }
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     const double cpu_seconds = static_cast<double>(std::clock() - c0) / CLOCKS_PER_SEC;
     // The film epochs' scans keep their frame; the masks say where it is (COLMAP's names).
@@ -305,6 +323,14 @@ int main(int argc, char** argv) {
                 scene.landscape.buildings.size(), scene.landscape.trees.size());
     for (const diachron::SyntheticEpoch& epoch : scene.epochs) {
       const diachron::Helmert3& h = epoch.world_from_epoch;
+      if (epoch.orthophoto) {
+        std::printf("%s: true orthophoto %dx%d px, GSD %.2f m, DSM (true surface) %dx%d (%zu valid), "
+                    "world_from_epoch scale %.4f rotation %.2f deg\n",
+                    epoch.name.c_str(), epoch.orthophoto->frame.width(), epoch.orthophoto->frame.height(), epoch.gsd_m,
+                    epoch.dsm.width(), epoch.dsm.height(), epoch.dsm.statistics().count, h.scale,
+                    diachron::rad_to_deg(diachron::rotation_angle(h.rotation)));
+        continue;
+      }
       std::printf("%s: %zu images %dx%d px, f %.1f px, GSD %.2f m, DSM %dx%d (%zu valid), %zu tie points, "
                   "world_from_epoch scale %.4f rotation %.2f deg\n",
                   epoch.name.c_str(), epoch.images.size(), epoch.camera.width(), epoch.camera.height(),

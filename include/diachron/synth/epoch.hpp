@@ -9,6 +9,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <limits>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -18,6 +19,7 @@
 #include <diachron/camera/camera.hpp>
 #include <diachron/camera/distortion.hpp>
 #include <diachron/camera/frame.hpp>
+#include <diachron/camera/ortho_frame.hpp>
 #include <diachron/camera/pose.hpp>
 #include <diachron/core/error.hpp>
 #include <diachron/core/raster.hpp>
@@ -245,6 +247,13 @@ struct SyntheticImage {
   Pose estimated_pose;               ///< pose in the epoch frame fitted to the estimated camera
 };
 
+/// A true orthophoto that stands for an epoch (synth/ortho_reference.hpp): the epoch's landscape
+/// rendered straight down, delivered as a national orthophoto is, with its DSM.
+struct SyntheticOrthophoto {
+  Raster<std::uint8_t> pixels;  ///< 8-bit grey image
+  OrthoFrame frame;             ///< its north-up grid in the epoch frame (X, Y axes of that frame)
+};
+
 /// One epoch of a synthetic scene, with its ground truth.
 struct SyntheticEpoch {
   std::string name;
@@ -263,8 +272,12 @@ struct SyntheticEpoch {
   Helmert3 world_from_epoch = Helmert3::identity();
   /// Intra-epoch tie points.
   std::vector<TiePoint> tie_points;
-  /// Ground sampling distance at the mean ground height, metres.
+  /// Ground sampling distance at the mean ground height, metres (of the orthophoto, when there is one).
   double gsd_m = 0.0;
+  /// Set when the epoch is delivered as a true orthophoto and its DSM instead of images and an SfM
+  /// model (make_ortho_reference): then `images` and `tie_points` are empty, the cameras unused,
+  /// and `dsm` is the true surface in the epoch frame.
+  std::optional<SyntheticOrthophoto> orthophoto;
 
   /// The true transform from the world into the epoch frame.
   Helmert3 epoch_from_world() const { return world_from_epoch.inverse(); }

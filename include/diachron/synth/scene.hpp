@@ -235,6 +235,7 @@ enum class SynthStream : std::uint64_t {
   image = 8,
   texture = 9,
   landscape = 10,
+  orthophoto = 11,
 };
 
 inline std::uint64_t stream_id(SynthStream purpose, std::uint64_t epoch, std::uint64_t item = 0) {

@@ -15,6 +15,9 @@
 /// OUT/truth/<epoch>_true_surface.tif      the epoch's true surface (world frame)
 /// OUT/truth/<epoch>_albedo.tif            the epoch's ground albedo (world frame, 0..1)
 /// @endcode
+/// An epoch delivered as a true orthophoto (synth/ortho_reference.hpp) has instead only
+/// OUT/<epoch>/ortho.tif (8-bit grey GeoTIFF, north-up geotransform in the epoch frame) and
+/// OUT/<epoch>/dsm.tif (its true surface in the epoch frame); no images/ and no COLMAP model.
 /// Nothing an SfM of the epoch would not know is in OUT/<epoch>/; OUT/truth/ is for scoring.
 
 #include <cmath>
@@ -37,8 +40,10 @@
 
 #include <diachron/camera/camera.hpp>
 #include <diachron/camera/distortion.hpp>
+#include <diachron/camera/ortho_frame.hpp>
 #include <diachron/camera/pose.hpp>
 #include <diachron/core/error.hpp>
+#include <diachron/core/geo_transform.hpp>
 #include <diachron/core/raster.hpp>
 #include <diachron/geometry/helmert3.hpp>
 #include <diachron/io/colmap_text.hpp>
@@ -120,6 +125,12 @@ class SceneTextReader {
     DIACHRON_CHECK(static_cast<bool>(fields_ >> w), "'" << path_ << "' line " << number_ << ": cannot read " << what);
     return w;
   }
+  /// The next word of the current line, or nullopt when the line has no more.
+  std::optional<std::string> optional_word() {
+    std::string w;
+    if (fields_ >> w) return w;
+    return std::nullopt;
+  }
   void check(bool condition, const std::string& message) const {
     DIACHRON_CHECK(condition, "'" << path_ << "' line " << number_ << ": " << message);
   }
@@ -184,6 +195,48 @@ inline Raster<std::uint8_t> read_scene_image(const std::string& path) {
 
 inline Dsm albedo_as_dsm(const AlbedoMap& albedo) { return Dsm(albedo.values, albedo.transform); }
 
+/// Writes an 8-bit grey image as a GeoTIFF with a geotransform (io/geotiff.hpp's write_image_u8
+/// writes none). Throws diachron::Error naming the file on failure.
+inline void write_geotiff_u8(const Raster<std::uint8_t>& image, const GeoTransform& transform,
+                             const std::string& path) {
+  DIACHRON_CHECK(!image.empty(), "cannot write '" << path << "': empty image");
+  gdal_register_once();
+  const QuietGdalErrors quiet;
+  GDALDriver* driver = GetGDALDriverManager()->GetDriverByName("GTiff");
+  DIACHRON_CHECK(driver != nullptr, "cannot write '" << path << "': GDAL has no GTiff driver");
+  char** create_options = CSLSetNameValue(nullptr, "COMPRESS", "DEFLATE");
+  GdalDatasetPtr ds(driver->Create(path.c_str(), image.width(), image.height(), 1, GDT_Byte, create_options));
+  CSLDestroy(create_options);
+  DIACHRON_CHECK(ds != nullptr,
+                 "cannot write '" << path << "': cannot create the file" << QuietGdalErrors::last_message());
+  GeoTransform gt = transform;
+  ds->SetGeoTransform(gt.c.data());
+  const CPLErr err = ds->GetRasterBand(1)->RasterIO(GF_Write, 0, 0, image.width(), image.height(),
+                                                    const_cast<std::uint8_t*>(image.data()), image.width(),
+                                                    image.height(), GDT_Byte, 0, 0, nullptr);
+  DIACHRON_CHECK(err == CE_None, "cannot write '" << path << "': write failed" << QuietGdalErrors::last_message());
+  close_written(ds, path);
+}
+
+/// Reads an orthophoto written by write_geotiff_u8: its pixels and its (north-up) frame.
+inline SyntheticOrthophoto read_scene_orthophoto(const std::string& path) {
+  const Dsm raster = read_geotiff_dsm(path);
+  SyntheticOrthophoto out;
+  out.pixels.resize(raster.width(), raster.height());
+  for (int y = 0; y < raster.height(); ++y)
+    for (int x = 0; x < raster.width(); ++x) {
+      const float v = raster.heights()(x, y);
+      DIACHRON_CHECK(v >= 0.0f && v <= 255.0f, "'" << path << "': not an 8-bit image (value " << v << ")");
+      out.pixels(x, y) = static_cast<std::uint8_t>(v);
+    }
+  try {
+    out.frame = OrthoFrame(raster.transform(), raster.width(), raster.height());
+  } catch (const Error& e) {
+    DIACHRON_CHECK(false, "'" << path << "': " << e.what());
+  }
+  return out;
+}
+
 }  // namespace detail
 
 
@@ -244,9 +297,13 @@ inline std::string scene_file_name(const std::string& directory) {
 /// Writes `scene` into the folder `directory` in the layout of the file comment (folders created
 /// if needed; files in them are overwritten). The estimated camera goes out as COLMAP OPENCV, or
 /// FULL_OPENCV when it has K3 (fitted, not exact, when it has the shear B2, which no COLMAP model
-/// holds). The landscape description (roads, buildings) is not written: its effect is in the true
-/// surfaces and albedo rasters. Throws diachron::Error naming the file that cannot be written, or
-/// for an epoch named like the truth folder.
+/// holds). An epoch with an orthophoto goes out as ortho.tif and dsm.tif only, and the truth
+/// records its grid ("epoch <name> orthophoto", then "orthophoto W H" and the six GDAL
+/// coefficients) instead of a camera, images and tie points; the scene file's version stays 2,
+/// as scenes without one are written exactly as before. The landscape description (roads,
+/// buildings) is not written: its effect is in the true surfaces and albedo rasters. Throws
+/// diachron::Error naming the file that cannot be written, or for an epoch named like the truth
+/// folder.
 inline void write_scene(const Scene& scene, const std::string& directory) {
   DIACHRON_CHECK(!directory.empty(), "write_scene: empty folder name");
   for (const SyntheticEpoch& epoch : scene.epochs)
@@ -272,13 +329,26 @@ inline void write_scene(const Scene& scene, const std::string& directory) {
   for (const SyntheticEpoch& epoch : scene.epochs) {
     const std::string epoch_dir = directory + "/" + epoch.name;
     make_folder(epoch_dir, "write_scene");
-    make_folder(epoch_dir + "/images", "write_scene");
-    out << "epoch " << epoch.name << '\n';
+    if (!epoch.orthophoto) make_folder(epoch_dir + "/images", "write_scene");
+    out << "epoch " << epoch.name << (epoch.orthophoto ? " orthophoto" : "") << '\n';
     out << "gsd " << epoch.gsd_m << '\n';
     out << "world_from_epoch " << epoch.world_from_epoch.scale;
     detail::write_scene_matrix(out, epoch.world_from_epoch.rotation);
     out << ' ' << epoch.world_from_epoch.translation.x() << ' ' << epoch.world_from_epoch.translation.y() << ' '
         << epoch.world_from_epoch.translation.z() << '\n';
+    if (epoch.orthophoto) {
+      // A delivered orthophoto and DSM: no camera, images nor tie points to record.
+      const OrthoFrame& frame = epoch.orthophoto->frame;
+      out << "orthophoto " << frame.width() << ' ' << frame.height();
+      for (double c : frame.geo_transform().c) out << ' ' << c;
+      out << '\n';
+      detail::write_geotiff_u8(epoch.orthophoto->pixels, frame.geo_transform(), epoch_dir + "/ortho.tif");
+      write_geotiff_dsm(epoch.dsm, epoch_dir + "/dsm.tif");
+      write_geotiff_dsm(epoch.true_surface, truth + "/" + epoch.name + "_true_surface.tif");
+      if (!epoch.albedo.values.empty())
+        write_geotiff_dsm(detail::albedo_as_dsm(epoch.albedo), truth + "/" + epoch.name + "_albedo.tif");
+      continue;
+    }
     detail::write_scene_camera(out, "camera", epoch.camera);
     out << "images " << epoch.images.size() << '\n';
     for (const SyntheticImage& image : epoch.images) {
@@ -314,7 +384,8 @@ inline void write_scene(const Scene& scene, const std::string& directory) {
 
 /// Reads a scene written by write_scene(): the truth from OUT/truth/, and from each epoch's
 /// folder its images, its DSM, and from its COLMAP model the estimated camera and poses and the
-/// tie points (epoch-frame position and observations). The landscape is left empty. Throws
+/// tie points (epoch-frame position and observations); from an orthophoto epoch's folder its
+/// orthophoto (SyntheticEpoch::orthophoto) and DSM, with no images. The landscape is left empty. Throws
 /// diachron::Error naming the file (and line) that is missing or cannot be parsed, or that
 /// disagrees with the truth (an image or tie point missing from the COLMAP model).
 inline Scene read_scene(const std::string& directory) {
@@ -343,6 +414,8 @@ inline Scene read_scene(const std::string& directory) {
     SyntheticEpoch epoch;
     in.expect("epoch");
     epoch.name = in.word("the epoch name");
+    const std::optional<std::string> kind = in.optional_word();
+    in.check(!kind || *kind == "orthophoto", "unknown kind of epoch '" + kind.value_or("") + "'");
     const std::string epoch_dir = directory + "/" + epoch.name;
     in.expect("gsd");
     epoch.gsd_m = in.value<double>("the GSD");
@@ -352,6 +425,32 @@ inline Scene read_scene(const std::string& directory) {
     double t[3];
     in.read(t, 3, "the Helmert translation");
     epoch.world_from_epoch.translation = Vec3(t[0], t[1], t[2]);
+    const std::string truth = directory + "/" + kSceneTruthFolder + "/" + epoch.name;
+    const auto read_truth_rasters = [&] {
+      epoch.dsm = read_geotiff_dsm(epoch_dir + "/dsm.tif");
+      epoch.true_surface = read_geotiff_dsm(truth + "_true_surface.tif");
+      const std::string albedo_path = truth + "_albedo.tif";
+      if (::stat(albedo_path.c_str(), &info) == 0) {
+        const Dsm albedo = read_geotiff_dsm(albedo_path);
+        epoch.albedo.values = albedo.heights();
+        epoch.albedo.transform = albedo.transform();
+      }
+    };
+    if (kind) {
+      in.expect("orthophoto");
+      int size[2];
+      in.read(size, 2, "the orthophoto size");
+      GeoTransform recorded;
+      in.read(recorded.c.data(), 6, "the orthophoto geotransform");
+      const std::string ortho_path = epoch_dir + "/ortho.tif";
+      epoch.orthophoto = detail::read_scene_orthophoto(ortho_path);
+      DIACHRON_CHECK(epoch.orthophoto->frame.width() == size[0] && epoch.orthophoto->frame.height() == size[1] &&
+                         epoch.orthophoto->frame.geo_transform().c == recorded.c,
+                     "'" << ortho_path << "' does not have the size and geotransform '" << text_path << "' records");
+      read_truth_rasters();
+      scene.epochs.push_back(std::move(epoch));
+      continue;
+    }
     epoch.camera = in.camera("camera");
 
     const ColmapModel model = read_colmap_text(epoch_dir);
@@ -415,15 +514,7 @@ inline Scene read_scene(const std::string& directory) {
       }
       epoch.tie_points.push_back(std::move(tie));
     }
-    epoch.dsm = read_geotiff_dsm(epoch_dir + "/dsm.tif");
-    const std::string truth = directory + "/" + kSceneTruthFolder + "/" + epoch.name;
-    epoch.true_surface = read_geotiff_dsm(truth + "_true_surface.tif");
-    const std::string albedo_path = truth + "_albedo.tif";
-    if (::stat(albedo_path.c_str(), &info) == 0) {
-      const Dsm albedo = read_geotiff_dsm(albedo_path);
-      epoch.albedo.values = albedo.heights();
-      epoch.albedo.transform = albedo.transform();
-    }
+    read_truth_rasters();
     scene.epochs.push_back(std::move(epoch));
   }
   in.expect("check_points");
