@@ -24,7 +24,10 @@
 
 #include <diachron/core/error.hpp>
 #include <diachron/core/parallel.hpp>
+#include <diachron/core/random.hpp>
 #include <diachron/core/raster.hpp>
+#include <diachron/core/types.hpp>
+#include <diachron/matching/grid_interest_points.hpp>
 #include <diachron/matching/point_match.hpp>
 #include <diachron/terrain/local_affine.hpp>
 #include <diachron/terrain/transfer.hpp>
@@ -61,7 +64,8 @@ struct CorrelationMatchOptions {
   /// 4.4 master px at the local scale of 2) from the truth on the decades scenes, with a tail to
   /// about twice that, hence 12.
   int search_radius_px = 12;
-  /// A peak is kept when its score is at least this, in [-1, 1].
+  /// A peak is kept when its score is at least this, in [-1, 1]: the fixed threshold. With
+  /// adaptive_threshold on, it serves only when too few null surfaces could be computed.
   double min_score = 0.3;
   /// ... and exceeds every other local maximum of the surface (farther than exclusion_px from it)
   /// by at least this, in [0, 2]: repetitive or ambiguous texture has several near-equal peaks.
@@ -88,6 +92,32 @@ struct CorrelationMatchOptions {
   /// Worker threads over points (0 = all cores). The result does not depend on it.
   std::size_t threads = 0;
 
+  /// Judge the peaks against chance instead of min_score. Each call correlates null_surfaces of its
+  /// points around predictions displaced well outside the search (a square ring of Chebyshev radius
+  /// 2 R + window_px to twice that, master px, through the point's own local affine), where any
+  /// peak is a wrong one, and requires the (1 - false_alarm_rate) quantile of those surfaces' best
+  /// scores (never below adaptive_floor). The same search, window, measure and images give the null
+  /// scores, so the threshold follows what chance gives on this pair: a real inter-epoch pair's
+  /// true peaks are low (median 0.16-0.21) where a fixed 0.3 rejects most of them
+  /// (docs/correlation-matching.md, "A threshold against chance").
+  bool adaptive_threshold = false;
+  /// The share of wrong places whose best score passes the adaptive threshold, per point, in
+  /// (0, 0.5]: the threshold is the null maximum that at most floor(rate * n) of the n null maxima
+  /// exceed.
+  double false_alarm_rate = 0.01;
+  /// The least adaptive threshold, in [-1, 1]: below it, a peak is too weak to be refined to
+  /// sub-pixel whatever chance gives.
+  double adaptive_floor = 0.1;
+  /// Null surfaces per call (>= 1), on points spread evenly over the list (those whose prediction and
+  /// window are inside both images); their cost is about that many points' matching.
+  int null_surfaces = 256;
+  /// With fewer usable null surfaces than this (in [1, null_surfaces]), the call keeps min_score and
+  /// its threshold says adaptive = false. It should be at least 1 / false_alarm_rate.
+  int min_null_surfaces = 100;
+  /// Seed of the null displacements: surface j draws from RandomStream(seed, j), so the threshold
+  /// does not depend on the threads.
+  std::uint64_t seed = 0;
+
   /// Throws diachron::Error naming the first invalid field.
   void check() const {
     DIACHRON_CHECK(window_px >= 5 && window_px <= 255 && window_px % 2 == 1,
@@ -103,6 +133,14 @@ struct CorrelationMatchOptions {
     DIACHRON_CHECK(exclusion_px >= 1, "CorrelationMatchOptions::exclusion_px must be >= 1, got " << exclusion_px);
     DIACHRON_CHECK(std::isfinite(affine_step_px) && affine_step_px >= 0.0,
                    "CorrelationMatchOptions::affine_step_px must be finite and >= 0, got " << affine_step_px);
+    DIACHRON_CHECK(false_alarm_rate > 0.0 && false_alarm_rate <= 0.5,
+                   "CorrelationMatchOptions::false_alarm_rate must be in (0, 0.5], got " << false_alarm_rate);
+    DIACHRON_CHECK(adaptive_floor >= -1.0 && adaptive_floor <= 1.0,
+                   "CorrelationMatchOptions::adaptive_floor must be in [-1, 1], got " << adaptive_floor);
+    DIACHRON_CHECK(null_surfaces >= 1, "CorrelationMatchOptions::null_surfaces must be >= 1, got " << null_surfaces);
+    DIACHRON_CHECK(min_null_surfaces >= 1 && min_null_surfaces <= null_surfaces,
+                   "CorrelationMatchOptions::min_null_surfaces must be in [1, null_surfaces = "
+                       << null_surfaces << "], got " << min_null_surfaces);
   }
 
   /// The step local_affine is called with: affine_step_px, or half the window when it is 0.
@@ -134,6 +172,26 @@ struct CorrelationPeak {
   double second = std::numeric_limits<double>::quiet_NaN();  ///< best other local maximum (-1 if none)
 };
 
+/// The score threshold one correlation_match() call applied, and the null statistics behind it.
+struct CorrelationThreshold {
+  /// The least peak score the call required (options.min_score unless `adaptive`).
+  double min_score = std::numeric_limits<double>::quiet_NaN();
+  /// True when min_score came from the null surfaces; false when adaptive_threshold is off, or on
+  /// with fewer than min_null_surfaces usable null surfaces (then min_score is options.min_score).
+  bool adaptive = false;
+  /// The best score of each usable null surface, in the order of the samples (empty when adaptive
+  /// is off).
+  std::vector<double> null_maxima;
+  /// Upper quantiles of null_maxima (the value at most floor(q n) of them exceed, q = 0.5, 0.1,
+  /// 0.01, false_alarm_rate), and their largest; NaN without null surfaces. The adaptive threshold
+  /// is max(adaptive_floor, null_quantile).
+  double null_median = std::numeric_limits<double>::quiet_NaN();
+  double null_q90 = std::numeric_limits<double>::quiet_NaN();
+  double null_q99 = std::numeric_limits<double>::quiet_NaN();
+  double null_quantile = std::numeric_limits<double>::quiet_NaN();
+  double null_max = std::numeric_limits<double>::quiet_NaN();
+};
+
 /// What correlation_match() returns. `matches[k]` is point `point_index[k]` (score = peak score),
 /// in the order of the points; `peaks` has one entry per input point.
 struct CorrelationMatchResult {
@@ -143,6 +201,8 @@ struct CorrelationMatchResult {
   std::vector<CorrelationPeak> peaks;
   std::size_t no_prediction = 0, outside_master = 0, outside_secondary = 0, flat = 0, low_score = 0,
               ambiguous = 0, at_border = 0;
+  /// The score threshold applied (low_score is below threshold.min_score).
+  CorrelationThreshold threshold;
 };
 
 /// The correlation surface of master point `a` against the secondary image around `b0` through the
@@ -173,6 +233,16 @@ template <class T, class Transfer>
 CorrelationMatchResult correlation_match(const Raster<T>& master, const Raster<T>& secondary,
                                          const std::vector<Eigen::Vector2d>& points, const Transfer& transfer,
                                          const CorrelationMatchOptions& options = {});
+
+/// The same on grid_interest_points' output (their positions, in order; the strengths are not used).
+template <class T, class Transfer>
+CorrelationMatchResult correlation_match(const Raster<T>& master, const Raster<T>& secondary,
+                                         const std::vector<InterestPoint>& points, const Transfer& transfer,
+                                         const CorrelationMatchOptions& options = {});
+
+/// The value of `values` that at most floor(share * n) of its n values exceed (its upper `share`
+/// quantile, ties included), share in [0, 1]; NaN when empty. The adaptive threshold's quantile.
+inline double correlation_upper_quantile(std::vector<double> values, double share);
 
 // Implementation ---------------------------------------------------------------------------------
 
@@ -583,6 +653,78 @@ CorrelationPeak correlate_point(const Raster<T>& master, const Eigen::Vector2d& 
   return p;
 }
 
+inline double correlation_upper_quantile(std::vector<double> values, double share) {
+  DIACHRON_CHECK(share >= 0.0 && share <= 1.0, "correlation_upper_quantile: share must be in [0, 1], got " << share);
+  if (values.empty()) return std::numeric_limits<double>::quiet_NaN();
+  const std::size_t n = values.size();
+  // At most `above` values may exceed the answer; the 1e-9 keeps 0.01 * 300 from rounding to 2.
+  const std::size_t above = std::min(n - 1, static_cast<std::size_t>(std::floor(share * static_cast<double>(n) + 1e-9)));
+  const auto at = values.begin() + static_cast<std::ptrdiff_t>(n - 1 - above);
+  std::nth_element(values.begin(), at, values.end());
+  return *at;
+}
+
+namespace detail {
+
+// The adaptive threshold of one call (options.adaptive_threshold): null surface j correlates the
+// master window of an eligible point (spread evenly over `eligible`) around its prediction displaced
+// by a random offset whose Chebyshev norm is in [2 R + window, 2 (2 R + window)) master px, through the
+// point's local affine, and keeps the surface's best score. Offsets that take the search off the
+// secondary image are drawn again (8 tries); a point whose tries all leave it gives no sample.
+template <class T, class Transfer>
+CorrelationThreshold correlation_null_threshold(const Raster<T>& master, const Raster<T>& secondary,
+                                                const std::vector<Eigen::Vector2d>& points,
+                                                const std::vector<std::optional<Eigen::Vector2d>>& predictions,
+                                                const std::vector<std::size_t>& eligible, const Transfer& transfer,
+                                                const CorrelationMatchOptions& o) {
+  CorrelationThreshold t;
+  const std::size_t samples = eligible.empty() ? 0 : static_cast<std::size_t>(o.null_surfaces);
+  std::vector<double> maxima(samples, std::numeric_limits<double>::quiet_NaN());
+  const double reach = 2.0 * o.search_radius_px + o.window_px;
+  constexpr std::size_t kChunk = 8;
+  parallel_for((samples + kChunk - 1) / kChunk, o.threads, [&](std::size_t chunk) {
+    CorrelationScratch s;
+    Eigen::MatrixXd surface;
+    for (std::size_t j = chunk * kChunk; j < std::min(samples, (chunk + 1) * kChunk); ++j) {
+      const std::size_t i = eligible[j * eligible.size() / samples];
+      const std::optional<Eigen::Matrix2d> affine = local_affine(transfer, points[i], o.affine_step());
+      if (!affine) continue;
+      RandomStream rng(o.seed, j);
+      for (int attempt = 0; attempt < 8; ++attempt) {
+        const double angle = rng.uniform(0.0, 2.0 * kPi);
+        const double norm = rng.uniform(reach, 2.0 * reach);
+        const Eigen::Vector2d dir(std::cos(angle), std::sin(angle));
+        const Eigen::Vector2d offset = norm / std::max(std::abs(dir.x()), std::abs(dir.y())) * dir;
+        const CorrelationOutcome outcome = correlation_surface_into(master, points[i], secondary,
+                                                                    Eigen::Vector2d(*predictions[i] + *affine * offset),
+                                                                    *affine, o, s, surface);
+        if (outcome == CorrelationOutcome::outside_secondary) continue;
+        if (outcome == CorrelationOutcome::not_run) {
+          double best = -std::numeric_limits<double>::infinity();
+          for (Eigen::Index k = 0; k < surface.size(); ++k)
+            if (std::isfinite(surface(k)) && surface(k) > best) best = surface(k);
+          if (std::isfinite(best)) maxima[j] = best;
+        }
+        break;
+      }
+    }
+  });
+  for (double v : maxima)
+    if (std::isfinite(v)) t.null_maxima.push_back(v);
+  if (!t.null_maxima.empty()) {
+    t.null_median = correlation_upper_quantile(t.null_maxima, 0.5);
+    t.null_q90 = correlation_upper_quantile(t.null_maxima, 0.1);
+    t.null_q99 = correlation_upper_quantile(t.null_maxima, 0.01);
+    t.null_quantile = correlation_upper_quantile(t.null_maxima, o.false_alarm_rate);
+    t.null_max = *std::max_element(t.null_maxima.begin(), t.null_maxima.end());
+  }
+  t.adaptive = t.null_maxima.size() >= static_cast<std::size_t>(o.min_null_surfaces);
+  t.min_score = t.adaptive ? std::max(o.adaptive_floor, t.null_quantile) : o.min_score;
+  return t;
+}
+
+}  // namespace detail
+
 template <class T, class Transfer>
 CorrelationMatchResult correlation_match(const Raster<T>& master, const Raster<T>& secondary,
                                          const std::vector<Eigen::Vector2d>& points, const Transfer& transfer,
@@ -598,40 +740,60 @@ CorrelationMatchResult correlation_match(const Raster<T>& master, const Raster<T
   result.peaks.assign(points.size(), CorrelationPeak{});
   constexpr std::size_t kChunk = 32;  // each task allocates its scratch once
   const std::size_t chunks = (points.size() + kChunk - 1) / kChunk;
+  // The predictions first: the adaptive threshold samples among the points they put inside.
+  std::vector<std::optional<Eigen::Vector2d>> predictions(points.size());
+  parallel_for(chunks, options.threads, [&](std::size_t chunk) {
+    for (std::size_t i = chunk * kChunk; i < std::min(points.size(), (chunk + 1) * kChunk); ++i) {
+      predictions[i] = transfer(points[i]);
+      DIACHRON_CHECK(!predictions[i] || predictions[i]->allFinite(),
+                     "correlation_match: the transfer sends master point "
+                         << i << " (" << points[i].transpose() << ") to a non-finite position");
+    }
+  });
+  const int half = options.window_px / 2;
+  auto inside_secondary = [&](const Eigen::Vector2d& b) {
+    return b.x() >= 0.0 && b.y() >= 0.0 && b.x() <= secondary.width() - 1 && b.y() <= secondary.height() - 1;
+  };
+  auto inside_master = [&](const Eigen::Vector2d& a) {
+    return detail::correlation_inside(master.width(), master.height(), a, Eigen::Matrix2d::Identity(), half + 1);
+  };
+  if (options.adaptive_threshold) {
+    std::vector<std::size_t> eligible;
+    for (std::size_t i = 0; i < points.size(); ++i)
+      if (predictions[i] && inside_secondary(*predictions[i]) && inside_master(points[i])) eligible.push_back(i);
+    result.threshold =
+        detail::correlation_null_threshold(master, secondary, points, predictions, eligible, transfer, options);
+  } else {
+    result.threshold.min_score = options.min_score;
+  }
+  CorrelationMatchOptions judged = options;
+  judged.min_score = result.threshold.min_score;
   parallel_for(chunks, options.threads, [&](std::size_t chunk) {
     detail::CorrelationScratch s;
     Eigen::MatrixXd surface;
     for (std::size_t i = chunk * kChunk; i < std::min(points.size(), (chunk + 1) * kChunk); ++i) {
       CorrelationPeak& p = result.peaks[i];
-      const std::optional<Eigen::Vector2d> b0 = transfer(points[i]);
-      DIACHRON_CHECK(!b0 || b0->allFinite(), "correlation_match: the transfer sends master point "
-                                                 << i << " (" << points[i].transpose()
-                                                 << ") to a non-finite position");
+      const std::optional<Eigen::Vector2d>& b0 = predictions[i];
       // A prediction off the secondary image leaves it with any window around it (the window's
       // corners surround its centre): its local affine, four more transfers, is not needed to say so.
-      if (b0 && !(b0->x() >= 0.0 && b0->y() >= 0.0 && b0->x() <= secondary.width() - 1 &&
-                  b0->y() <= secondary.height() - 1)) {
-        const int half = options.window_px / 2;
-        p.outcome = detail::correlation_inside(master.width(), master.height(), points[i],
-                                               Eigen::Matrix2d::Identity(), half + 1)
-                        ? CorrelationOutcome::outside_secondary
-                        : CorrelationOutcome::outside_master;
+      if (b0 && !inside_secondary(*b0)) {
+        p.outcome = inside_master(points[i]) ? CorrelationOutcome::outside_secondary : CorrelationOutcome::outside_master;
         continue;
       }
       const std::optional<Eigen::Matrix2d> affine =
-          b0 ? local_affine(transfer, points[i], options.affine_step()) : std::nullopt;
+          b0 ? local_affine(transfer, points[i], judged.affine_step()) : std::nullopt;
       if (!b0 || !affine) {
         p.outcome = CorrelationOutcome::no_prediction;
         continue;
       }
       const CorrelationOutcome o =
-          detail::correlation_surface_into(master, points[i], secondary, *b0, *affine, options, s, surface);
+          detail::correlation_surface_into(master, points[i], secondary, *b0, *affine, judged, s, surface);
       if (o != CorrelationOutcome::not_run) {
         p.outcome = o;
         continue;
       }
-      p = detail::correlation_peak(surface, *b0, *affine, options);
-      if (p.outcome == CorrelationOutcome::matched) detail::correlation_refine(secondary, *b0, *affine, options, s, p);
+      p = detail::correlation_peak(surface, *b0, *affine, judged);
+      if (p.outcome == CorrelationOutcome::matched) detail::correlation_refine(secondary, *b0, *affine, judged, s, p);
     }
   });
   for (std::size_t i = 0; i < points.size(); ++i) {
@@ -653,6 +815,16 @@ CorrelationMatchResult correlation_match(const Raster<T>& master, const Raster<T
   }
   result.success = !result.matches.empty();
   return result;
+}
+
+template <class T, class Transfer>
+CorrelationMatchResult correlation_match(const Raster<T>& master, const Raster<T>& secondary,
+                                         const std::vector<InterestPoint>& points, const Transfer& transfer,
+                                         const CorrelationMatchOptions& options) {
+  std::vector<Eigen::Vector2d> positions;
+  positions.reserve(points.size());
+  for (const InterestPoint& p : points) positions.push_back(p.position);
+  return correlation_match(master, secondary, positions, transfer, options);
 }
 
 }  // namespace diachron
