@@ -25,10 +25,13 @@ struct GridInterestOptions {
   /// 1900 candidates on a 1600 x 1200 image.
   int cell_px = 32;
   /// Side of the square window the structure tensor sums over, pixels (odd, >= 3). It should be
-  /// about the correlation window: the point is textured where the correlation looks.
-  int window_px = 15;
+  /// about the correlation window: the point is textured where the correlation looks. 21 is
+  /// CorrelationMatchOptions::window_px, so that the margin below is the correlation's too: every
+  /// default grid point's correlation window lies inside the image (none is outside_master).
+  int window_px = 21;
   /// Points closer than this to the image edge are not taken, pixels (>= 0). The window itself
-  /// always stays inside (at least window_px / 2 + 1).
+  /// always stays inside: the margin is max(border_px, window_px / 2 + 1), the correlation
+  /// window's for a correlation window of window_px.
   int border_px = 0;
   /// A point is kept when its smallest eigenvalue, per window pixel, is at least this
   /// (grey levels^2 per pixel^2 of central-difference gradients, >= 0). 4 means an isotropic
