@@ -528,7 +528,8 @@ MeasureStats peak_statistics(const PairData& p, const Homography2& reference, Co
 /// overlapping image pairs per seed, the peak scores at the true and at random positions; and
 /// correlation_match (the composition's settings) on the same points, predicted through the epoch
 /// DSMs and the TRUE Helmert (a perfect rough co-registration), its matches that the truth can score
-/// counted within 3 px of the truth. One MeasureStats per measure, over all pairs.
+/// counted within 3 px of the truth, out of the points the truth can score. One MeasureStats per
+/// measure, over all pairs.
 std::vector<MeasureStats> decades_statistics(int seeds, std::uint64_t first_seed, std::size_t pairs_per_seed,
                                              std::size_t max_points, std::size_t threads, std::uint64_t seed) {
   std::vector<MeasureStats> out;
@@ -581,7 +582,9 @@ std::vector<MeasureStats> decades_statistics(int seeds, std::uint64_t first_seed
         peak_scores(master, secondary, points, true_transfer, predicted, s.match, 2.0 * s.match.window_px * scale,
                     threads, seed, ref[k], rnd[k]);
         const CorrelationMatchResult r = correlation_match(master, secondary, points, predicted, s.match);
-        out[k].grid_points += points.size();
+        // The denominator: the points the truth can score (in the overlap, on unchanged ground), as
+        // every point of a real pair is in its overlap.
+        for (const Eigen::Vector2d& a : points) out[k].grid_points += true_transfer(a) ? 1 : 0;
         for (const PointMatch& m : r.matches) {
           // Only the matches the truth can score (not on changed, occluded or unseen ground).
           const std::optional<Eigen::Vector2d> b = true_transfer(m.a);
