@@ -32,8 +32,9 @@
 // warped in through the fitted homography as a 64 px checkerboard (each stretched between its 1st
 // and 99th percentiles), inliers green, outliers red. --write-epochs DIR:
 // DIR/<pair>/{old,new}/{ortho.tif,dsm.tif}, orthophoto epochs in one frame (new: 1 unit per px;
-// old: cell = the similarity's scale, same top-left corner); the DSM has cells of --dsm-cell units (4) and is flat (0 m), or with --dsm grey the pair's
-// *_dsm-grey.png times --dsm-metres-per-level (1 m per grey level; the rendering's scale is unknown).
+// old: cell = the similarity's scale, same top-left corner; no CRS); the DSM has cells of
+// --dsm-cell units (4) and is flat (0 m), or with --dsm grey the pair's *_dsm-grey.png times
+// --dsm-metres-per-level (1 m per grey level; the rendering's scale is unknown).
 //
 // Deterministic: every random draw comes from --seed (0). Times are wall clock of this machine.
 
@@ -287,7 +288,8 @@ std::vector<Eigen::Vector2d> grid_points(const Raster<std::uint8_t>& image, cons
 
 MethodOutput correlation(const PairData& p, const CorrelationSetting& s) {
   const std::vector<Eigen::Vector2d> points = grid_points(p.master, s.interest);
-  const CorrelationMatchResult r = correlation_match(p.master, p.secondary, points, make_map_transfer(p.rough), s.match);
+  const CorrelationMatchResult r =
+      correlation_match(p.master, p.secondary, points, make_map_transfer(p.rough), s.match);
   MethodOutput out;
   out.matches = r.matches;
   out.reach = ReachKind::square;
@@ -421,7 +423,9 @@ Quantiles quantiles(std::vector<double> v) {
   q.n = v.size();
   if (v.empty()) return q;
   std::sort(v.begin(), v.end());
-  const auto at = [&v](double f) { return v[static_cast<std::size_t>(std::lround(f * static_cast<double>(v.size() - 1)))]; };
+  const auto at = [&v](double f) {
+    return v[static_cast<std::size_t>(std::lround(f * static_cast<double>(v.size() - 1)))];
+  };
   q.p10 = at(0.1);
   q.p50 = at(0.5);
   q.p90 = at(0.9);
@@ -451,7 +455,8 @@ struct MeasureStats {
 
 /// Up to `max_points` of `all`, taken evenly (every k-th).
 std::vector<Eigen::Vector2d> evenly(const std::vector<Eigen::Vector2d>& all, std::size_t max_points) {
-  const std::size_t stride = std::max<std::size_t>(1, (all.size() + max_points - 1) / std::max<std::size_t>(max_points, 1));
+  const std::size_t bound = std::max<std::size_t>(max_points, 1);
+  const std::size_t stride = std::max<std::size_t>(1, (all.size() + bound - 1) / bound);
   std::vector<Eigen::Vector2d> points;
   for (std::size_t i = 0; i < all.size(); i += stride) points.push_back(all[i]);
   return points;
@@ -635,7 +640,8 @@ void write_picture(const std::string& path, const PairData& p, const MethodRow& 
   cv::cvtColor(grey, colour, cv::COLOR_GRAY2BGR);
   for (std::size_t i = 0; i < row.matches.size(); ++i) {
     const bool inlier = i < row.score.inlier_mask.size() && row.score.inlier_mask[i];
-    const cv::Point c(static_cast<int>(std::lround(row.matches[i].a.x())), static_cast<int>(std::lround(row.matches[i].a.y())));
+    const Eigen::Vector2d& a = row.matches[i].a;
+    const cv::Point c(static_cast<int>(std::lround(a.x())), static_cast<int>(std::lround(a.y())));
     const int r = row.matches.size() > 2000 ? 1 : 2;  // dense matches: small dots
     cv::circle(colour, c, inlier ? r + 1 : r, inlier ? cv::Scalar(0, 220, 0) : cv::Scalar(0, 0, 255), cv::FILLED);
   }
@@ -684,10 +690,10 @@ void write_epoch(const std::string& folder, const Raster<std::uint8_t>& image, c
       if (dsm_grey) {
         // The cell centre's image pixel, then the rendering's (nearest; it has about the image's size).
         const Eigen::Vector2d px = geo.world_to_pixel(dsm_geo.pixel_to_world(Eigen::Vector2d(x, y)));
-        const int gx = std::clamp(static_cast<int>(std::lround((px.x() + 0.5) * dsm_grey->width() / image.width() - 0.5)), 0,
-                                  dsm_grey->width() - 1);
-        const int gy = std::clamp(static_cast<int>(std::lround((px.y() + 0.5) * dsm_grey->height() / image.height() - 0.5)), 0,
-                                  dsm_grey->height() - 1);
+        const double fx = static_cast<double>(dsm_grey->width()) / image.width();
+        const double fy = static_cast<double>(dsm_grey->height()) / image.height();
+        const int gx = std::clamp(static_cast<int>(std::lround((px.x() + 0.5) * fx - 0.5)), 0, dsm_grey->width() - 1);
+        const int gy = std::clamp(static_cast<int>(std::lround((px.y() + 0.5) * fy - 0.5)), 0, dsm_grey->height() - 1);
         z = static_cast<float>((*dsm_grey)(gx, gy) * metres_per_level);
       }
       heights(x, y) = z;
@@ -702,6 +708,11 @@ std::string fixed(double v, int decimals) {
   char buf[64];
   std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
   return buf;
+}
+
+/// 100 part / whole with one decimal (0 for an empty whole).
+std::string percent(std::size_t part, std::size_t whole) {
+  return fixed(whole ? 100.0 * static_cast<double>(part) / static_cast<double>(whole) : 0.0, 1);
 }
 
 std::string verdict(const MethodRow& r) {
@@ -820,7 +831,8 @@ int main(int argc, char** argv) {
         rows.push_back(std::move(row));
       }
 
-      bench::Table table({"method", "matches", "within 3 px", "share", "cells of 16", "null mean / max", "verdict", "s"});
+      bench::Table table(
+          {"method", "matches", "within 3 px", "share", "cells of 16", "null mean / max", "verdict", "s"});
       for (const MethodRow& r : rows)
         table.add({r.name, std::to_string(r.score.matches), std::to_string(r.score.inliers),
                    fixed(100.0 * r.score.share(), 1) + " %", std::to_string(r.score.cells),
@@ -840,19 +852,20 @@ int main(int argc, char** argv) {
                          "grid points matched (cells6-min0)", "of them within 3 px"});
         for (const CorrelationMeasure measure : kMeasures) {
           const std::string composition = correlation_name(measure, true);
-          const auto it = std::find_if(rows.begin(), rows.end(), [&](const MethodRow& r) { return r.name == composition; });
+          const auto it =
+              std::find_if(rows.begin(), rows.end(), [&](const MethodRow& r) { return r.name == composition; });
           MethodRow empty;
           const MeasureStats s =
-              peak_statistics(p, best->score.model, measure, it != rows.end() ? *it : empty, args.stats_points, args.seed);
+              peak_statistics(p, best->score.model, measure, it != rows.end() ? *it : empty, args.stats_points,
+                              args.seed);
           stats.push_back(s);
           const bool ran = it != rows.end();
           st.add({to_string(measure), quantile_text(s.at_reference), quantile_text(s.at_random),
                   std::to_string(s.at_reference.n),
                   ran ? std::to_string(s.matched) + " of " + std::to_string(s.grid_points) + " (" +
-                            fixed(s.grid_points ? 100.0 * s.matched / s.grid_points : 0.0, 1) + " %)"
+                            percent(s.matched, s.grid_points) + " %)"
                       : "-",
-                  ran ? std::to_string(s.within) + " (" + fixed(s.matched ? 100.0 * s.within / s.matched : 0.0, 1) + " %)"
-                      : "-"});
+                  ran ? std::to_string(s.within) + " (" + percent(s.within, s.matched) + " %)" : "-"});
         }
         st.print(std::cout);
       } else if (args.stats) {
@@ -899,9 +912,8 @@ int main(int argc, char** argv) {
         for (const auto& [label, st] : all_stats) {
           const MeasureStats& s = st[k];
           side.add({to_string(s.measure), label, quantile_text(s.at_reference), quantile_text(s.at_random),
-                    fixed(s.grid_points ? 100.0 * s.matched / s.grid_points : 0.0, 1) + " % of " +
-                        std::to_string(s.grid_points),
-                    std::to_string(s.within) + " (" + fixed(s.matched ? 100.0 * s.within / s.matched : 0.0, 1) + " %)"});
+                    percent(s.matched, s.grid_points) + " % of " + std::to_string(s.grid_points),
+                    std::to_string(s.within) + " (" + percent(s.within, s.matched) + " %)"});
         }
       side.print(std::cout);
       std::printf("\n## The composition's matches by peak score (min_score): kept, within 3 px (share)\n\n");
