@@ -70,7 +70,10 @@ struct Homography2EstimatorOptions {
 ///   and samples no homography maps consistently: the orientation (sign of the signed area) of the
 ///   four triangles, source against target, must agree, and with allow_reflection false be kept.
 ///   For an exact homography this is the same test as the sign of w in minimal (target area =
-///   det(H) / (w_a w_b w_c) * source area), made before any solve.
+///   det(H) / (w_a w_b w_c) * source area), made before any solve. Ransac redraws refused
+///   samples within the iteration: at 80 % outliers about 8 draws in 9 are refused, so an
+///   iteration is more likely to be all-inlier than the Adaptive rule assumes, which errs on the
+///   safe side (it stops no earlier).
 /// Models have unit Frobenius norm and w > 0 at the (weighted) centroid of the source points they
 /// were fit on. Stateless apart from its options; all members const, so one object can serve many
 /// threads.
