@@ -121,7 +121,7 @@ TEST_CASE("Adaptive threshold: it sits between chance peaks and true peaks", "[m
   CHECK(t.null_maxima.size() <= 256);
   // Chance gives peaks well above 0 over 625 shifts, but far below the true ones.
   CHECK(t.null_median > 0.1);
-  CHECK(t.min_score == std::max(0.1, t.null_quantile));
+  CHECK(t.min_score == std::max(0.1, t.null_quantile));  // the floor; no ceiling by default
   CHECK(t.min_score >= t.null_q90);
   CHECK(t.min_score < 0.8);
   // Every point whose search holds its truth (all but those near the secondary's edge) is matched,
@@ -157,6 +157,15 @@ TEST_CASE("Adaptive threshold: an unrelated secondary image gives almost no matc
   CHECK(fixed.matches.size() > searched / 10);
   CHECK(adaptive.matches.size() <= searched / 40);
   CHECK(adaptive.threshold.min_score > 0.3);
+  // A ceiling at the fixed threshold makes the adaptive one never stricter than it.
+  CorrelationMatchOptions capped = chance_options(true);
+  capped.adaptive_ceiling = 0.3;
+  const CorrelationMatchResult at_ceiling =
+      diachron::correlation_match(master, unrelated, points, chance_transfer(), capped);
+  CHECK(at_ceiling.threshold.adaptive);
+  CHECK(at_ceiling.threshold.min_score == 0.3);
+  CHECK(at_ceiling.threshold.null_quantile == adaptive.threshold.null_quantile);
+  CHECK(at_ceiling.point_index == fixed.point_index);
 }
 
 TEST_CASE("Adaptive threshold: deterministic whatever the thread count, driven by its seed", "[matching]") {
@@ -294,6 +303,8 @@ TEST_CASE("Adaptive threshold: invalid options name their field", "[matching]") 
   throws_naming([](CorrelationMatchOptions& o) { o.false_alarm_rate = 0.6; }, "false_alarm_rate");
   throws_naming([](CorrelationMatchOptions& o) { o.false_alarm_rate = std::nan(""); }, "false_alarm_rate");
   throws_naming([](CorrelationMatchOptions& o) { o.adaptive_floor = 1.5; }, "adaptive_floor");
+  throws_naming([](CorrelationMatchOptions& o) { o.adaptive_ceiling = 0.05; }, "adaptive_ceiling");
+  throws_naming([](CorrelationMatchOptions& o) { o.adaptive_ceiling = 1.5; }, "adaptive_ceiling");
   throws_naming([](CorrelationMatchOptions& o) { o.null_surfaces = 0; }, "null_surfaces");
   throws_naming([](CorrelationMatchOptions& o) { o.min_null_surfaces = 0; }, "min_null_surfaces");
   throws_naming([](CorrelationMatchOptions& o) { o.min_null_surfaces = o.null_surfaces + 1; }, "min_null_surfaces");

@@ -108,6 +108,9 @@ struct CorrelationMatchOptions {
   /// The least adaptive threshold, in [-1, 1]: below it, a peak is too weak to be refined to
   /// sub-pixel whatever chance gives.
   double adaptive_floor = 0.1;
+  /// The largest adaptive threshold, in [adaptive_floor, 1] (1: none). A peak this high is kept
+  /// whatever chance gives; at min_score (0.3) the adaptive threshold only ever lowers the fixed one.
+  double adaptive_ceiling = 1.0;
   /// Null surfaces per call (>= 1), on points spread evenly over the list (those whose prediction and
   /// window are inside both images); their cost is about that many points' matching.
   int null_surfaces = 256;
@@ -137,6 +140,10 @@ struct CorrelationMatchOptions {
                    "CorrelationMatchOptions::false_alarm_rate must be in (0, 0.5], got " << false_alarm_rate);
     DIACHRON_CHECK(adaptive_floor >= -1.0 && adaptive_floor <= 1.0,
                    "CorrelationMatchOptions::adaptive_floor must be in [-1, 1], got " << adaptive_floor);
+    DIACHRON_CHECK(adaptive_ceiling >= adaptive_floor && adaptive_ceiling <= 1.0,
+                   "CorrelationMatchOptions::adaptive_ceiling must be in [adaptive_floor = " << adaptive_floor
+                                                                                           << ", 1], got "
+                                                                                           << adaptive_ceiling);
     DIACHRON_CHECK(null_surfaces >= 1, "CorrelationMatchOptions::null_surfaces must be >= 1, got " << null_surfaces);
     DIACHRON_CHECK(min_null_surfaces >= 1 && min_null_surfaces <= null_surfaces,
                    "CorrelationMatchOptions::min_null_surfaces must be in [1, null_surfaces = "
@@ -184,7 +191,7 @@ struct CorrelationThreshold {
   std::vector<double> null_maxima;
   /// Upper quantiles of null_maxima (the value at most floor(q n) of them exceed, q = 0.5, 0.1,
   /// 0.01, false_alarm_rate), and their largest; NaN without null surfaces. The adaptive threshold
-  /// is max(adaptive_floor, null_quantile).
+  /// is null_quantile clamped to [adaptive_floor, adaptive_ceiling].
   double null_median = std::numeric_limits<double>::quiet_NaN();
   double null_q90 = std::numeric_limits<double>::quiet_NaN();
   double null_q99 = std::numeric_limits<double>::quiet_NaN();
@@ -719,7 +726,7 @@ CorrelationThreshold correlation_null_threshold(const Raster<T>& master, const R
     t.null_max = *std::max_element(t.null_maxima.begin(), t.null_maxima.end());
   }
   t.adaptive = t.null_maxima.size() >= static_cast<std::size_t>(o.min_null_surfaces);
-  t.min_score = t.adaptive ? std::max(o.adaptive_floor, t.null_quantile) : o.min_score;
+  t.min_score = t.adaptive ? std::clamp(t.null_quantile, o.adaptive_floor, o.adaptive_ceiling) : o.min_score;
   return t;
 }
 
