@@ -20,6 +20,7 @@
 #include <functional>
 #include <optional>
 #include <string>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -38,6 +39,7 @@
 #include <diachron/matching/image_mask.hpp>
 #include <diachron/matching/point_match.hpp>
 #include <diachron/matching/unsharp_mask.hpp>
+#include <diachron/pipeline/correlation_pair.hpp>
 #include <diachron/pipeline/overlapping_pairs.hpp>
 #include <diachron/terrain/dsm.hpp>
 #include <diachron/terrain/gsd.hpp>
@@ -155,13 +157,7 @@ struct PreciseCorrelationOptions {
 /// of width x height px: options.interest.cell_px, or larger so that the image has at most
 /// options.max_points_per_image cells.
 inline int effective_cell_px(const PreciseCorrelationOptions& options, int width, int height) {
-  DIACHRON_CHECK(width > 0 && height > 0, "effective_cell_px: an empty image (" << width << " x " << height << ")");
-  const int cell = options.interest.cell_px;
-  if (options.max_points_per_image == 0) return cell;
-  const double area = static_cast<double>(width) * static_cast<double>(height);
-  const double side = std::sqrt(area / static_cast<double>(options.max_points_per_image));
-  // ceil, so that the bound holds; the small tolerance keeps an exact square from rounding up.
-  return std::max(cell, static_cast<int>(std::ceil(side - 1e-9)));
+  return effective_cell_px(options.interest.cell_px, options.max_points_per_image, width, height);
 }
 
 /// Options of precise matching. Defaults: the paper's and MicMac's, except where
@@ -481,6 +477,9 @@ PrecisePairReport precise_match_pair_guided(const PreciseImage<MasterFrame>& mas
 /// points correlated around their DSM + Helmert prediction, an optional second pass around
 /// predictions corrected by the ground filter, then the filters (the ground filter with the
 /// correlation's threshold; NCC only when both options.use_ncc and options.correlation.use_ncc).
+/// The points and the two passes are pipeline/correlation_pair.hpp's (correlation_points,
+/// correlation_two_passes), whose refit policy here is the ground filter's 3D Helmert; without
+/// DSMs, correlation_match_pair composes the same parts around a 2D map.
 template <class MasterFrame, class SecondaryFrame>
 PrecisePairReport precise_match_pair_correlation(const PreciseImage<MasterFrame>& master, const Dsm& master_dsm,
                                                  const PreciseImage<SecondaryFrame>& secondary,
@@ -511,18 +510,12 @@ PrecisePairReport precise_match_pair_correlation(const PreciseImage<MasterFrame>
   const Raster<std::uint8_t>& master_pixels = co.master_sharpen.enabled() ? sharpened : *master.pixels;
   GridInterestOptions interest = co.interest;
   interest.cell_px = effective_cell_px(co, master.pixels->width(), master.pixels->height());
-  // The window must fit whole around a point, so points keep the correlation window's margin.
-  interest.border_px = std::max(interest.border_px, co.match.window_px / 2 + 2);
-  // A window that reaches a masked pixel (the scan's frame, a fiducial mark) would find its peak on
-  // it: points are taken only where the whole window is usable, and a match's secondary window,
-  // the master window's size times the GSD ratio, must be usable too.
+  // Points keep the window's margin from the border and, on a masked master, only where the whole
+  // window is usable; a match's secondary window, the master window's size times the GSD ratio,
+  // must be usable too (correlation_points, correlation_two_passes).
   const int half_window = co.match.window_px / 2;
-  const bool master_masked = master.mask && !master.mask->empty();
   detail::check_mask_sizes(master, secondary);
-  const Raster<std::uint8_t> allowed = master_masked ? master.mask->eroded(half_window) : Raster<std::uint8_t>{};
-  std::vector<Eigen::Vector2d> points;
-  for (const InterestPoint& p : grid_interest_points(master_pixels, interest, master_masked ? &allowed : nullptr))
-    points.push_back(p.position);
+  std::vector<Eigen::Vector2d> points = correlation_points(master_pixels, interest, co.match.window_px, master.mask);
   const int secondary_half =
       detail::secondary_half_px(master, master_dsm, secondary, secondary_dsm, epoch2_from_epoch1, half_window);
   const auto transfer = make_dsm_transfer(*master.frame, master_dsm, *secondary.frame, epoch2_from_epoch1);
@@ -533,39 +526,26 @@ PrecisePairReport precise_match_pair_correlation(const PreciseImage<MasterFrame>
                                             epoch2_from_epoch1, co);
     relief_note = ", " + std::to_string(before - points.size()) + " of them skipped on relief";
   }
-  CorrelationMatchResult first = correlation_match(master_pixels, *secondary.pixels, points, transfer, co.match);
-  const auto describe = [](const CorrelationMatchResult& r) {
-    return std::to_string(r.matches.size()) + " matched, " + std::to_string(r.low_score) + " low score, " +
-           std::to_string(r.ambiguous) + " ambiguous, " + std::to_string(r.at_border) + " at the border, " +
-           std::to_string(r.outside_secondary) + " outside the secondary, " + std::to_string(r.flat) + " flat, " +
-           std::to_string(r.no_prediction) + " without prediction";
+  // The refit: the ground filter's Helmert on the first pass corrects the rough Helmert the
+  // transfer went through (none when there are too few matches or no GSD to set its threshold).
+  using Refit = CorrelationRefit<std::remove_const_t<decltype(transfer)>>;
+  const auto refit = [&](const PointMatches& first) {
+    if (first.size() < filters.ground.min_pairs) return Refit{};
+    const double gsd =
+        detail::image_gsd(*secondary.frame, secondary_dsm, secondary.pixels->width(), secondary.pixels->height());
+    if (!std::isfinite(gsd)) return Refit{};
+    const DsmLift<SecondaryFrame> secondary_lift(*secondary.frame, secondary_dsm);
+    const auto master_lift = [&transfer](const Eigen::Vector2d& px) { return transfer.secondary_point(px); };
+    const GroundFilterResult ground = ground_filter(first, master_lift, secondary_lift, gsd, filters.ground);
+    if (!ground.success) return Refit{std::nullopt, "ground filter: " + ground.message};
+    const Helmert3 refined = ground.model * epoch2_from_epoch1;
+    return Refit{make_dsm_transfer(*master.frame, master_dsm, *secondary.frame, refined), std::string()};
   };
-  std::string second_pass = "first pass: " + describe(first) + "; no second pass";
-  report.masked = detail::drop_masked(first.matches, nullptr, 0, secondary.mask, secondary_half);
-  report.tentative = first.matches;
-  if (co.second_pass_radius_px > 0 && report.tentative.size() >= filters.ground.min_pairs) {
-    const double gsd = detail::image_gsd(*secondary.frame, secondary_dsm, secondary.pixels->width(),
-                                             secondary.pixels->height());
-    if (std::isfinite(gsd)) {
-      const DsmLift<SecondaryFrame> secondary_lift(*secondary.frame, secondary_dsm);
-      const auto master_lift = [&transfer](const Eigen::Vector2d& px) { return transfer.secondary_point(px); };
-      const GroundFilterResult ground = ground_filter(report.tentative, master_lift, secondary_lift, gsd, filters.ground);
-      if (ground.success) {
-        // The ground filter's model corrects the master lift, which went through the rough Helmert.
-        const Helmert3 refined = ground.model * epoch2_from_epoch1;
-        const auto transfer2 = make_dsm_transfer(*master.frame, master_dsm, *secondary.frame, refined);
-        CorrelationMatchOptions narrow = co.match;
-        narrow.search_radius_px = co.second_pass_radius_px;
-        narrow.exclusion_px = std::min(narrow.exclusion_px, std::max(1, narrow.search_radius_px - 1));
-        CorrelationMatchResult again = correlation_match(master_pixels, *secondary.pixels, points, transfer2, narrow);
-        second_pass = "first pass: " + describe(first) + "; second pass: " + describe(again);
-        report.masked = detail::drop_masked(again.matches, nullptr, 0, secondary.mask, secondary_half);
-        report.tentative = std::move(again.matches);
-      } else {
-        second_pass += " (ground filter: " + ground.message + ")";
-      }
-    }
-  }
+  CorrelationPasses passes = correlation_two_passes(master_pixels, *secondary.pixels, points, transfer, co.match,
+                                                    co.second_pass_radius_px, refit, secondary.mask, secondary_half);
+  report.masked = passes.masked();
+  report.tentative = passes.second_ran ? std::move(passes.second) : std::move(passes.first);
+  const std::string& second_pass = passes.message;
   report.seconds.tentative = detail::precise_seconds_since(start);
   filter_precise_pair(report, master, master_dsm, secondary, secondary_dsm, epoch2_from_epoch1, filters);
   report.message += "; " + std::to_string(points.size()) + " interest points (" + std::to_string(interest.cell_px) +
