@@ -212,6 +212,50 @@ inline Dsm read_geotiff_dsm(const std::string& path, const GeoTiffReadOptions& o
   return Dsm(std::move(heights), gt, std::move(crs));
 }
 
+/// What a raster says of where it lies, read without its pixels: its size, its geotransform (if
+/// it has one) and its CRS as WKT (empty when it has none).
+struct RasterGeoreference {
+  int width = 0, height = 0;
+  bool has_geotransform = false;
+  GeoTransform transform;
+  std::string crs;
+};
+
+/// Reads the georeference of the raster at `path` (any GDAL raster). Throws diachron::Error naming
+/// the file when it is missing, cannot be opened or is empty; a missing geotransform is not an
+/// error here (RasterGeoreference::has_geotransform says so), a non-finite one is.
+inline RasterGeoreference read_raster_georeference(const std::string& path) {
+  const detail::QuietGdalErrors quiet;
+  const detail::GdalDatasetPtr ds = detail::open_raster(path, "raster");
+  RasterGeoreference out;
+  out.width = ds->GetRasterXSize();
+  out.height = ds->GetRasterYSize();
+  DIACHRON_CHECK(out.width > 0 && out.height > 0 && ds->GetRasterCount() >= 1,
+                 "cannot read raster '" << path << "': empty (" << out.width << " x " << out.height << ", "
+                                        << ds->GetRasterCount() << " bands)");
+  out.has_geotransform = ds->GetGeoTransform(out.transform.c.data()) == CE_None;
+  if (!out.has_geotransform) out.transform = GeoTransform{};
+  for (double v : out.transform.c)
+    DIACHRON_CHECK(std::isfinite(v), "cannot read raster '" << path << "': non-finite geotransform");
+  if (const OGRSpatialReference* srs = ds->GetSpatialRef()) {
+    char* wkt = nullptr;
+    if (srs->exportToWkt(&wkt) == OGRERR_NONE && wkt) out.crs = wkt;
+    CPLFree(wkt);
+  }
+  return out;
+}
+
+/// True when two CRS given as WKT (or any form GDAL reads) are the same; two empty ones are the
+/// same (both in an arbitrary local frame), an empty and a non-empty one are not.
+inline bool same_crs(const std::string& a, const std::string& b) {
+  if (a.empty() || b.empty()) return a.empty() && b.empty();
+  if (a == b) return true;
+  const detail::QuietGdalErrors quiet;
+  OGRSpatialReference sa, sb;
+  if (sa.SetFromUserInput(a.c_str()) != OGRERR_NONE || sb.SetFromUserInput(b.c_str()) != OGRERR_NONE) return false;
+  return sa.IsSame(&sb) != 0;
+}
+
 /// A hole value a DSM seems to hold as heights: its lowest height is one of the usual sentinels
 /// (-9999, -99999, -32767, -32768, or the lowest float) and lies more than 1000 units below every
 /// other height. Such a file had no nodata tag (or another one), and reading it with

@@ -35,8 +35,17 @@ struct GreyImageReadOptions {
   /// default, so that a few saturated or dead pixels do not set the range.
   double stretch_low_percent = 0.1;
   double stretch_high_percent = 99.9;
+  /// A window of the image to read instead of the whole: top-left pixel (window_x, window_y) and
+  /// size window_width x window_height px (a width of 0: the whole image). It must lie inside the
+  /// image. The stretch of wider samples is then that of the window. For tiles of large rasters
+  /// (orthophotos) without reading all of them.
+  int window_x = 0, window_y = 0, window_width = 0, window_height = 0;
 
   void check() const {
+    DIACHRON_CHECK(window_x >= 0 && window_y >= 0 && window_width >= 0 && window_height >= 0 &&
+                       (window_width == 0) == (window_height == 0),
+                   "GreyImageReadOptions: the window must have a non-negative origin and both sizes 0 or > 0, got ("
+                       << window_x << ", " << window_y << ") " << window_width << " x " << window_height);
     DIACHRON_CHECK(stretch_low_percent >= 0.0 && stretch_high_percent <= 100.0 &&
                        stretch_low_percent < stretch_high_percent,
                    "GreyImageReadOptions: need 0 <= stretch_low_percent < stretch_high_percent <= 100, got "
@@ -54,8 +63,14 @@ inline Raster<std::uint8_t> read_image_grey8(const std::string& path, const Grey
   const int bands = ds->GetRasterCount();
   DIACHRON_CHECK(bands >= 1 && bands <= 4,
                  "cannot read image '" << path << "': it has " << bands << " bands (grey, grey + alpha, RGB or RGBA expected)");
-  const int w = ds->GetRasterXSize(), h = ds->GetRasterYSize();
-  DIACHRON_CHECK(w > 0 && h > 0, "cannot read image '" << path << "': empty raster " << w << " x " << h);
+  const int full_w = ds->GetRasterXSize(), full_h = ds->GetRasterYSize();
+  DIACHRON_CHECK(full_w > 0 && full_h > 0, "cannot read image '" << path << "': empty raster " << full_w << " x " << full_h);
+  const bool windowed = options.window_width > 0;
+  const int x0 = windowed ? options.window_x : 0, y0 = windowed ? options.window_y : 0;
+  const int w = windowed ? options.window_width : full_w, h = windowed ? options.window_height : full_h;
+  DIACHRON_CHECK(!windowed || (static_cast<long long>(x0) + w <= full_w && static_cast<long long>(y0) + h <= full_h),
+                 "cannot read image '" << path << "': the window (" << x0 << ", " << y0 << ") " << w << " x " << h
+                                       << " leaves the " << full_w << " x " << full_h << " image");
   const GDALDataType type = ds->GetRasterBand(1)->GetRasterDataType();
   DIACHRON_CHECK(!GDALDataTypeIsComplex(type), "cannot read image '" << path << "': complex samples");
   const std::size_t n = static_cast<std::size_t>(w) * static_cast<std::size_t>(h);
@@ -70,7 +85,7 @@ inline Raster<std::uint8_t> read_image_grey8(const std::string& path, const Grey
     using V = decltype(tag);
     std::vector<V> values(n);
     const GDALDataType as = std::is_same_v<V, std::uint8_t> ? GDT_Byte : GDT_Float32;
-    const CPLErr err = ds->GetRasterBand(index)->RasterIO(GF_Read, 0, 0, w, h, values.data(), w, h, as, 0, 0, nullptr);
+    const CPLErr err = ds->GetRasterBand(index)->RasterIO(GF_Read, x0, y0, w, h, values.data(), w, h, as, 0, 0, nullptr);
     DIACHRON_CHECK(err == CE_None,
                    "cannot read image '" << path << "': read failed" << detail::QuietGdalErrors::last_message());
     return values;
@@ -80,7 +95,7 @@ inline Raster<std::uint8_t> read_image_grey8(const std::string& path, const Grey
   // 8-bit photos, the common case, at 1 to 3 bytes per pixel of memory.
   if (type == GDT_Byte && !palette) {
     if (bands <= 2) {
-      const CPLErr err = first->RasterIO(GF_Read, 0, 0, w, h, px, w, h, GDT_Byte, 0, 0, nullptr);
+      const CPLErr err = first->RasterIO(GF_Read, x0, y0, w, h, px, w, h, GDT_Byte, 0, 0, nullptr);
       DIACHRON_CHECK(err == CE_None,
                      "cannot read image '" << path << "': read failed" << detail::QuietGdalErrors::last_message());
     } else {
