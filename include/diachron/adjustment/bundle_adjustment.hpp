@@ -71,14 +71,16 @@ inline SolveSummary solve_summary(const std::string& stage, const ceres::Solver:
   return out;
 }
 
-// Deactivates tracks left with fewer than 2 active observations; returns how many observations
-// that removed.
-inline std::size_t drop_thin_tracks(std::vector<BundleProblem::Observation>& observations, std::size_t tracks) {
+// Deactivates tracks left with fewer than 2 active observations, or none for a track whose point
+// has a prior (`anchored`: a control point seen in one image still constrains that image, as a
+// ground control point measured in one photo does); returns how many observations that removed.
+inline std::size_t drop_thin_tracks(std::vector<BundleProblem::Observation>& observations, std::size_t tracks,
+                                    const std::vector<bool>& anchored) {
   std::vector<int> active(tracks, 0);
   for (const auto& o : observations) active[o.track] += o.active ? 1 : 0;
   std::size_t removed = 0;
   for (auto& o : observations)
-    if (o.active && active[o.track] < 2) {
+    if (o.active && active[o.track] < (anchored[o.track] ? 1 : 2)) {
       o.active = false;
       ++removed;
     }
@@ -117,6 +119,13 @@ inline BundleResult bundle_adjust(const BundleInput& input, const BundleOptions&
       working.points[t] = tri.success ? tri.point : Vec3::Constant(std::numeric_limits<double>::quiet_NaN());
       report.tracks_not_triangulated += tri.success ? 0 : 1;
     }
+    // A control point seen in one image cannot be triangulated: it starts at its given position.
+    for (const GroundControlPoint& g : input.control_points)
+      if (g.track < input.tracks.size() && input.tracks[g.track].observations.size() == 1 &&
+          !working.points[g.track].allFinite() && g.position.allFinite()) {
+        working.points[g.track] = g.position;
+        --report.tracks_not_triangulated;
+      }
     source = &working;
   } else {
     for (std::size_t t = 0; t < input.points.size(); ++t)
@@ -127,7 +136,9 @@ inline BundleResult bundle_adjust(const BundleInput& input, const BundleOptions&
   }
   BundleProblem problem(*source, options);
   auto& observations = problem.observations();
-  detail::drop_thin_tracks(observations, input.tracks.size());
+  std::vector<bool> anchored(input.tracks.size(), false);
+  for (const GroundControlPoint& g : problem.control_points()) anchored[g.track] = true;
+  detail::drop_thin_tracks(observations, input.tracks.size(), anchored);
 
   // Usable tracks, inter-epoch links, observed cameras.
   std::vector<bool> used(input.tracks.size(), false);
@@ -183,7 +194,7 @@ inline BundleResult bundle_adjust(const BundleInput& input, const BundleOptions&
         ++rejected;
       }
     if (rejected == 0) break;
-    rejected += detail::drop_thin_tracks(observations, input.tracks.size());
+    rejected += detail::drop_thin_tracks(observations, input.tracks.size(), anchored);
     report.observations_rejected += rejected;
     if (!solve(IntrinsicsStage::all, "after rejection " + std::to_string(round + 1)))
       return finish("the solve failed after rejection: " + report.solves.back().termination);

@@ -70,7 +70,8 @@ std::vector<EpochPairMatches> epoch_pair_matches(const PairReports& pairs) {
 /// tie points (BundleOptions::intra_epoch_sigma_px), whose point is held to `position` by a prior
 /// of `sigma` per axis (BundleInput::control_points). With both epochs free
 /// (`fix_reference_epoch` false) the control points are the datum; with the reference fixed they
-/// add constraints on epoch 1. A point needs 2 observations to be triangulated and used.
+/// add constraints on epoch 1. A point seen in 2 images or more starts triangulated, one seen in a
+/// single image (e.g. matched to an orthophoto reference) starts at `position`; either is used.
 struct CombinedControlPoint {
   /// Position in the epoch-2 frame (the reference's, which the adjustment works in), its units.
   Eigen::Vector3d position = Eigen::Vector3d::Zero();
