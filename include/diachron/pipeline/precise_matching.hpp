@@ -77,6 +77,9 @@ struct PreciseCorrelationOptions {
   GridInterestOptions interest = [] {
     GridInterestOptions o;
     o.cell_px = 6;
+    // The structure tensor over 15 px, as every figure of docs/precise-matching.md was measured
+    // (GridInterestOptions' own default became the correlation window, 21 px, later).
+    o.window_px = 15;
     return o;
   }();
   /// At most about this many master points per image (0: no bound). On a master image of more than
