@@ -211,11 +211,12 @@ inline const char* to_string(PairRefitModel model) {
 /// (PreciseCorrelationOptions, measured on the decades scenes; docs/correlation-matching.md), with
 /// the DSM ground filter's 3 GSD turned into 3 secondary px.
 struct CorrelationPairOptions {
-  /// The master points: the strongest structure tensor per 6 px cell (about 53000 candidates on a
-  /// 1600 x 1200 image); denser cells give more matches at proportional cost.
+  /// The master points: the strongest structure tensor (over 15 px) per 6 px cell (about 53000
+  /// candidates on a 1600 x 1200 image); denser cells give more matches at proportional cost.
   GridInterestOptions interest = [] {
     GridInterestOptions o;
     o.cell_px = 6;
+    o.window_px = 15;  // the structure tensor of precise matching's points, as measured
     return o;
   }();
   /// At most about this many master points (0: no bound): on a larger image the cell grows
