@@ -103,8 +103,9 @@ struct CorrelationMatchOptions {
   bool adaptive_threshold = false;
   /// The share of wrong places whose best score passes the adaptive threshold, per point, in
   /// (0, 0.5]: the threshold is the null maximum that at most floor(rate * n) of the n null maxima
-  /// exceed.
-  double false_alarm_rate = 0.01;
+  /// exceed. 0.05: on the decades scenes (30 pairs) 210 correct final matches per pair at 95.7 %
+  /// within 3 px, against 118 at 96.2 % for 0.01 and 242 at 95.0 % for 0.1 (docs/correlation-matching.md).
+  double false_alarm_rate = 0.05;
   /// The least adaptive threshold, in [-1, 1]: below it, a peak is too weak to be refined to
   /// sub-pixel whatever chance gives.
   double adaptive_floor = 0.1;
