@@ -286,7 +286,8 @@ TEST_CASE("Adaptive threshold: off, the matches are correlate_point's with min_s
     }
   }
   // On, the verdicts are those of the fixed threshold set to the adaptive one.
-  const CorrelationMatchResult on = diachron::correlation_match(master, secondary, points, transfer, chance_options(true));
+  const CorrelationMatchResult on =
+      diachron::correlation_match(master, secondary, points, transfer, chance_options(true));
   CorrelationMatchOptions same = o;
   same.min_score = on.threshold.min_score;
   const CorrelationMatchResult as_fixed = diachron::correlation_match(master, secondary, points, transfer, same);

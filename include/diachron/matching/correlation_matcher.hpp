@@ -96,9 +96,10 @@ struct CorrelationMatchOptions {
   /// points around predictions displaced well outside the search (a square ring of Chebyshev radius
   /// 2 R + window_px to twice that, master px, through the point's own local affine), where any
   /// peak is a wrong one, and requires the (1 - false_alarm_rate) quantile of those surfaces' best
-  /// scores (never below adaptive_floor). The same search, window, measure and images give the null
-  /// scores, so the threshold follows what chance gives on this pair: a real inter-epoch pair's
-  /// true peaks are low (median 0.16-0.21) where a fixed 0.3 rejects most of them
+  /// scores, clamped to [adaptive_floor, adaptive_ceiling]. The same search, window, measure and
+  /// images give the null scores, so the threshold follows what chance gives on this pair: on a real
+  /// inter-epoch orthophoto pair (AppearanceChange) the orientation measure's correct peaks have a
+  /// median of 0.23 and chance's 99th percentile is 0.21, where a fixed 0.3 rejects most of them
   /// (docs/correlation-matching.md, "A threshold against chance").
   bool adaptive_threshold = false;
   /// The share of wrong places whose best score passes the adaptive threshold, per point, in
@@ -665,8 +666,9 @@ inline double correlation_upper_quantile(std::vector<double> values, double shar
   DIACHRON_CHECK(share >= 0.0 && share <= 1.0, "correlation_upper_quantile: share must be in [0, 1], got " << share);
   if (values.empty()) return std::numeric_limits<double>::quiet_NaN();
   const std::size_t n = values.size();
-  // At most `above` values may exceed the answer; the 1e-9 keeps 0.01 * 300 from rounding to 2.
-  const std::size_t above = std::min(n - 1, static_cast<std::size_t>(std::floor(share * static_cast<double>(n) + 1e-9)));
+  // At most `above` values may exceed the answer; the 1e-9 keeps 0.29 * 100 (28.999...) from flooring to 28.
+  const std::size_t above =
+      std::min(n - 1, static_cast<std::size_t>(std::floor(share * static_cast<double>(n) + 1e-9)));
   const auto at = values.begin() + static_cast<std::ptrdiff_t>(n - 1 - above);
   std::nth_element(values.begin(), at, values.end());
   return *at;
@@ -785,7 +787,8 @@ CorrelationMatchResult correlation_match(const Raster<T>& master, const Raster<T
       // A prediction off the secondary image leaves it with any window around it (the window's
       // corners surround its centre): its local affine, four more transfers, is not needed to say so.
       if (b0 && !inside_secondary(*b0)) {
-        p.outcome = inside_master(points[i]) ? CorrelationOutcome::outside_secondary : CorrelationOutcome::outside_master;
+        p.outcome =
+            inside_master(points[i]) ? CorrelationOutcome::outside_secondary : CorrelationOutcome::outside_master;
         continue;
       }
       const std::optional<Eigen::Matrix2d> affine =
