@@ -6,8 +6,9 @@
 // Each epoch folder holds a COLMAP text model (cameras.txt, images.txt, points3D.txt), images/ and
 // dsm.tif in the model's frame (what make_scene writes), and optionally masks/<image name>.png (COLMAP's
 // masks) or images/<stem>_Masq.tif (MicMac's): 0 where no match may be, e.g. the scan's frame and
-// fiducial marks. Epoch 1 is the master
-// (moved onto epoch 2).
+// fiducial marks; or it is an orthophoto epoch: ortho.tif (north-up geotransform) and dsm.tif in the
+// same CRS, cut into tiles (io/epoch_folder.hpp). Epoch 1 is the master (moved onto epoch 2). The
+// rough co-registration comes from the DSMs (--rough auto), or is given (--rough identity|FILE).
 // Writes
 //   DIR/rough_helmert.json  the rough co-registration, X2 = scale R X1 + translation (helmert.json's keys)
 //   DIR/Homol/              final inter-epoch tie points, MicMac Homol (both directions; names as in images.txt,
@@ -67,6 +68,7 @@
 #include <diachron/eval/distortion_precision.hpp>
 #include <diachron/io/adjusted_export.hpp>
 #include <diachron/pipeline/combined_adjustment.hpp>
+#include <diachron/pipeline/orthophoto_reference.hpp>
 #include <diachron/vision/draw_residuals.hpp>
 #include <glog/logging.h>
 #endif
@@ -78,7 +80,13 @@ using namespace diachron;
 const char* kUsage =
     "usage: match_epochs EPOCH1_DIR EPOCH2_DIR --out DIR [options]\n"
     "  each EPOCH_DIR: cameras.txt images.txt points3D.txt images/ dsm.tif, optionally masks/<image name>.png\n"
-    "  or images/<stem>_Masq.tif (0 where no match may be: the scan's frame, fiducial marks, clouds)\n"
+    "  or images/<stem>_Masq.tif (0 where no match may be: the scan's frame, fiducial marks, clouds); or an\n"
+    "  orthophoto epoch: ortho.tif (grey or colour, north-up geotransform) and dsm.tif in the same CRS,\n"
+    "  matched in tiles of up to 1536 px named ortho_x<X>_y<Y>.tif after their top-left orthophoto pixel\n"
+    "  --rough auto|identity|FILE             epoch 1 -> epoch 2: co-registered from the DSMs (auto,\n"
+    "                                         default), the identity (both epochs in one frame already:\n"
+    "                                         GNSS, GCPs, a previous run), or a helmert.json FILE as\n"
+    "                                         rough_coregistration writes it\n"
     "  --method correlation|patch|guided      tentative matches: interest points correlated around their\n"
     "                                         DSM + Helmert prediction (default), one-to-one transfer-\n"
     "                                         guided tiles, or keypoints guided by DSM + Helmert\n"
@@ -327,6 +335,24 @@ CombinedEpoch combined_epoch(const EpochFolder& e, bool one_camera) {
   return out;
 }
 
+// The control-point sigma of matches to an orthophoto reference: inter-epoch matches are weighted
+// as `sigma_px` px observations of epoch 1 (CombinedAdjustmentOptions), so each ground point may be
+// that many of epoch 1's pixels off, in epoch-2 units: the median GSD of epoch 1's images at their
+// centre, moved by the rough Helmert, over the reference DSM's mean height.
+double ortho_control_sigma(const std::vector<Frame<FraserAffine>>& frames1, const Helmert3& epoch2_from_epoch1,
+                           const EpochFolder& reference, double sigma_px) {
+  std::vector<double> gsd;
+  const double z = reference.dsm.statistics().mean;
+  for (const Frame<FraserAffine>& f : transformed_frames(frames1, epoch2_from_epoch1)) {
+    const Vec2 centre(0.5 * (f.camera().width() - 1), 0.5 * (f.camera().height() - 1));
+    if (const std::optional<double> g = gsd_at_height(f, z, centre); g && *g > 0.0) gsd.push_back(*g);
+  }
+  // No GSD (every centre ray misses the mean height): the orthophoto's own cell.
+  if (gsd.empty()) return sigma_px * reference.ortho.cell_size();
+  std::nth_element(gsd.begin(), gsd.begin() + static_cast<std::ptrdiff_t>(gsd.size() / 2), gsd.end());
+  return sigma_px * gsd[gsd.size() / 2];
+}
+
 std::string json_rms(const ResidualRms& r) {
   std::ostringstream o;
   o.precision(6);
@@ -512,7 +538,8 @@ auto& ground_threshold_gsd(Options& options, const std::string& method) {
 }
 
 void write_report(const std::string& path, const EpochFolder& e1, const EpochFolder& e2,
-                  const RoughCoregistrationReport& rough, const OverlappingPairsResult& overlap,
+                  const RoughCoregistrationReport& rough, const std::string& rough_source,
+                  const OverlappingPairsResult& overlap,
                   const PreciseMatchingReport& precise, const PreciseMatchingOptions& options,
                   const std::string& method, const std::string& matcher, const std::string& adjustment_section = "") {
   std::ofstream out(path);
@@ -520,7 +547,11 @@ void write_report(const std::string& path, const EpochFolder& e1, const EpochFol
   out.precision(10);
   out << "{\n  \"method\": " << quoted(method) << ",\n  \"matcher\": " << quoted(matcher) << ",\n";
   out << adjustment_section;
-  out << "  \"rough_coregistration\": {\"success\": " << (rough.success ? "true" : "false")
+  out << "  \"epochs\": [{\"kind\": " << quoted(e1.is_ortho() ? "orthophoto" : "photos") << ", \"images\": "
+      << e1.images.size() << "}, {\"kind\": " << quoted(e2.is_ortho() ? "orthophoto" : "photos")
+      << ", \"images\": " << e2.images.size() << "}],\n";
+  out << "  \"rough_coregistration\": {\"source\": " << quoted(rough_source)
+      << ", \"success\": " << (rough.success ? "true" : "false")
       << ", \"message\": " << quoted(rough.message) << ", \"inliers_2d\": " << rough.inliers_2d.size()
       << ", \"inliers_3d\": " << rough.inliers_3d.size() << ", \"rms_3d\": " << rough.rms_3d
       << ", \"trust\": " << quoted(to_string(rough.trust))
@@ -581,6 +612,7 @@ int main(int argc, char** argv) {
   std::string prior;  // --prior: epoch 1's intrinsic priors, NAME=SIGMA,...
   std::string gcps;  // --gcps: the control-point file
   std::string checks;  // --check-points: the check-point file
+  std::string rough_mode = "auto";  // --rough: auto, identity or a helmert.json
   double min_overlap = 0.1;
   std::optional<int> cell;  // unset: the default cell
   std::optional<long long> max_points;  // unset: PreciseCorrelationOptions' bound
@@ -608,6 +640,7 @@ int main(int argc, char** argv) {
       else if (a == "--max-points") max_points = std::stoll(value());
       else if (a == "--model") model_path = value();
       else if (a == "--min-overlap") min_overlap = std::stod(value());
+      else if (a == "--rough") rough_mode = value();
       else if (a == "--nodata") {
         dsm_read.assume_untagged_nodata = true;
         dsm_read.untagged_nodata = std::stod(value());
@@ -642,6 +675,15 @@ int main(int argc, char** argv) {
       else DIACHRON_CHECK(false, "unexpected argument " << a);
     }
     DIACHRON_CHECK(!dir1.empty() && !dir2.empty() && !out_dir.empty(), "two epoch folders and --out DIR are required");
+    // A given transform is read before any work: a missing or malformed file fails fast.
+    std::optional<Helmert3> given_rough;
+    if (rough_mode == "identity") given_rough = Helmert3::identity();
+    else if (rough_mode != "auto") {
+      DIACHRON_CHECK(!rough_mode.empty(), "--rough wants auto, identity or a helmert.json file");
+      DIACHRON_CHECK(is_regular_file(rough_mode), "--rough: '" << rough_mode
+                                                                << "' is neither auto, identity nor a file");
+      given_rough = read_helmert_json(rough_mode);
+    }
 #if !DIACHRON_MATCH_EPOCHS_ADJUST
     DIACHRON_CHECK(!adjust, "--adjust needs a build with Ceres (diachron::adjustment)");
 #endif
@@ -723,6 +765,9 @@ int main(int argc, char** argv) {
 
     const EpochFolder e1 = read_epoch_folder(dir1, dsm_read);
     const EpochFolder e2 = read_epoch_folder(dir2, dsm_read);
+    DIACHRON_CHECK(!adjust || !e1.is_ortho(),
+                   "epoch 1 ('" << dir1 << "') is an orthophoto epoch: with --adjust an orthophoto can only be the "
+                                   "reference, epoch 2; give the photo epoch first");
     for (const EpochFolder* e : {&e1, &e2})
       if (const std::optional<double> v = suspected_untagged_nodata(e->dsm); v && !dsm_read.assume_untagged_nodata)
         std::fprintf(stderr, "warning: '%s/dsm.tif' has heights of %g far below all others and no nodata tag for "
@@ -743,49 +788,59 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "image names with a folder or shared by both epochs: Homol/ uses e1_/e2_ names "
                            "(DIR/homol_names.txt)\n");
     if (!quiet)
-      std::fprintf(stderr,
-                   "epoch 1: %zu images (%zu masked), DSM %d x %d; epoch 2: %zu images (%zu masked), DSM %d x %d\n",
-                   e1.images.size(), e1.masks(), e1.dsm.width(), e1.dsm.height(), e2.images.size(), e2.masks(),
-                   e2.dsm.width(), e2.dsm.height());
+      for (const EpochFolder* e : {&e1, &e2})
+        std::fprintf(stderr, "epoch %d: %zu %s (%zu masked), DSM %d x %d\n", e == &e1 ? 1 : 2, e->images.size(),
+                     e->is_ortho() ? "orthophoto tiles" : "images", e->masks(), e->dsm.width(), e->dsm.height());
 
-    // 1. Rough co-registration from the DSMs (its defaults: SIFT on slope images).
-    RoughCoregistrationOptions rough_options;
-    rough_options.threads = threads;
-    rough_options.progress = progress;
-    rough_options.correlation_fallback = fallback;
-    const RoughCoregistrationReport rough =
-        rough_coregistration(e1.dsm, e2.dsm, ExtractorPairMatcher<SiftExtractor>(SiftExtractor{}), rough_options);
+    // 1. Rough co-registration: from the DSMs (its defaults: SIFT on slope images), or given.
+    RoughCoregistrationReport rough;
+    if (given_rough) {
+      rough.success = true;
+      rough.epoch2_from_epoch1 = *given_rough;
+      rough.message = rough_mode == "identity" ? "given: the identity (--rough identity)"
+                                               : "given: " + rough_mode + " (--rough FILE)";
+    } else {
+      RoughCoregistrationOptions rough_options;
+      rough_options.threads = threads;
+      rough_options.progress = progress;
+      rough_options.correlation_fallback = fallback;
+      rough = rough_coregistration(e1.dsm, e2.dsm, ExtractorPairMatcher<SiftExtractor>(SiftExtractor{}), rough_options);
+    }
+    const std::string rough_source = rough_mode == "auto" ? "dsm" : rough_mode == "identity" ? "identity" : "file";
     std::printf("rough co-registration: %s\n", rough.message.c_str());
     OverlappingPairsResult overlap;
     overlap_options.min_overlap_fraction = min_overlap;
     PreciseMatchingReport precise;
     if (!rough.success) {
-      write_report(out_dir + "/report.json", e1, e2, rough, overlap, precise, options, method, matcher_name);
+      write_report(out_dir + "/report.json", e1, e2, rough, rough_source, overlap, precise, options, method, matcher_name);
       std::printf("no co-registration: %s\n", rough.message.c_str());
       return 2;
     }
     write_helmert_json(rough.epoch2_from_epoch1, out_dir + "/rough_helmert.json");
 
-    // 2. Overlapping pairs through the DSMs, epoch 1's footprints moved by the Helmert.
-    std::vector<Frame<FraserAffine>> frames1, frames2;
-    for (const EpochImage& im : e1.images) frames1.push_back(im.frame);
-    for (const EpochImage& im : e2.images) frames2.push_back(im.frame);
+    // 2. Overlapping pairs through the DSMs, epoch 1's footprints moved by the Helmert. Photos and
+    // orthophoto tiles alike, through EpochFrame.
+    std::vector<EpochFrame> frames1, frames2;
+    std::vector<FootprintImage<EpochFrame>> footprints1, footprints2;
+    for (const EpochImage& im : e1.images) frames1.push_back(im.epoch_frame());
+    for (const EpochImage& im : e2.images) frames2.push_back(im.epoch_frame());
+    for (const EpochFrame& f : frames1) footprints1.push_back({f, f.width(), f.height()});
+    for (const EpochFrame& f : frames2) footprints2.push_back({f, f.width(), f.height()});
     overlap_options.threads = threads;
-    overlap = overlapping_pairs(make_footprint_images(frames1), e1.dsm, make_footprint_images(frames2), e2.dsm,
-                                rough.epoch2_from_epoch1, overlap_options);
+    overlap = overlapping_pairs(footprints1, e1.dsm, footprints2, e2.dsm, rough.epoch2_from_epoch1, overlap_options);
     std::printf("overlapping pairs: %zu of %zu candidates (%s)\n", overlap.pairs.size(), overlap.candidate_pairs,
                 overlap.message.c_str());
     if (overlap.pairs.empty()) {
-      write_report(out_dir + "/report.json", e1, e2, rough, overlap, precise, options, method, matcher_name);
+      write_report(out_dir + "/report.json", e1, e2, rough, rough_source, overlap, precise, options, method, matcher_name);
       std::printf("no overlapping pair: %s\n", overlap.message.c_str());
       return 2;
     }
 
     // 3. Precise matching per pair.
-    PreciseEpoch<Frame<FraserAffine>> p1{frames1, [&e1](std::size_t i) { return e1.load_image(i); }, &e1.dsm,
-                                         [&e1](std::size_t i) { return e1.load_mask(i); }};
-    PreciseEpoch<Frame<FraserAffine>> p2{frames2, [&e2](std::size_t i) { return e2.load_image(i); }, &e2.dsm,
-                                         [&e2](std::size_t i) { return e2.load_mask(i); }};
+    PreciseEpoch<EpochFrame> p1{frames1, [&e1](std::size_t i) { return e1.load_image(i); }, &e1.dsm,
+                                [&e1](std::size_t i) { return e1.load_mask(i); }};
+    PreciseEpoch<EpochFrame> p2{frames2, [&e2](std::size_t i) { return e2.load_image(i); }, &e2.dsm,
+                                [&e2](std::size_t i) { return e2.load_mask(i); }};
     SiftOptions sift_options;
     sift_options.root_sift = matcher_name == "rootsift";
     if (method == "correlation") {
@@ -812,7 +867,7 @@ int main(int argc, char** argv) {
     }
 
     // 4. Outputs.
-    write_report(out_dir + "/report.json", e1, e2, rough, overlap, precise, options, method, matcher_name);
+    write_report(out_dir + "/report.json", e1, e2, rough, rough_source, overlap, precise, options, method, matcher_name);
     const std::string homol = out_dir + "/Homol";
     make_folder(homol, "match_epochs");
     if (names.renamed) write_homol_names(out_dir + "/homol_names.txt", e1, e2, names);
@@ -853,13 +908,28 @@ int main(int argc, char** argv) {
         adjustment_options.bundle.epochs = {epoch1, EpochFreedom::all_fixed()};  // the stage's default, K's held
       }
       const CombinedEpoch combined1 = combined_epoch(e1, one_camera);
+      // An orthophoto reference is no image of the adjustment: its matches become control points
+      // observed in epoch 1's images (pipeline/orthophoto_reference.hpp).
+      std::vector<CombinedControlPoint> all_control = control_points;
+      if (e2.is_ortho()) {
+        std::vector<OrthoFrame> tiles;
+        for (const EpochImage& t : e2.images) tiles.push_back(*t.ortho);
+        const double sigma = ortho_control_sigma(combined1.frames, rough.epoch2_from_epoch1, e2,
+                                                 adjustment_options.bundle.inter_epoch_sigma_px);
+        const OrthophotoControlPoints from_ortho = orthophoto_control_points(precise.pairs, tiles, e2.dsm, sigma);
+        all_control.insert(all_control.end(), from_ortho.points.begin(), from_ortho.points.end());
+        std::printf("orthophoto reference: %zu of %zu matches as control points (sigma %.3g epoch-2 units), %zu "
+                    "without DSM height\n",
+                    from_ortho.points.size(), from_ortho.matches, sigma, from_ortho.off_dsm);
+      }
       const CombinedAdjustmentResult adjusted =
-          combined_adjustment(combined1, combined_epoch(e2, false),
-                              epoch_pair_matches(precise.pairs), rough.epoch2_from_epoch1, adjustment_options,
-                              control_points);
+          combined_adjustment(combined1, e2.is_ortho() ? CombinedEpoch{} : combined_epoch(e2, false),
+                              e2.is_ortho() ? std::vector<EpochPairMatches>{} : epoch_pair_matches(precise.pairs),
+                              rough.epoch2_from_epoch1, adjustment_options, all_control);
       std::vector<std::string> names;
       for (const EpochFolder* e : {&e1, &e2})
-        for (const EpochImage& image : e->images) names.push_back(image.name);
+        if (!e->is_ortho())
+          for (const EpochImage& image : e->images) names.push_back(image.name);
       const BundleReport& r = adjusted.report;
       std::printf("adjustment: %s\n", r.message.c_str());
       if (!control.empty()) {
@@ -896,7 +966,7 @@ int main(int argc, char** argv) {
           std::printf("3D RMS: rough only %.3f, adjusted %.3f\n", checked->first.rms_3d_m, checked->second.rms_3d_m);
       }
       if (!r.success) {
-        write_report(out_dir + "/report.json", e1, e2, rough, overlap, precise, options, method, matcher_name,
+        write_report(out_dir + "/report.json", e1, e2, rough, rough_source, overlap, precise, options, method, matcher_name,
                      adjustment_json(adjusted, names, nullptr, adjustment_options.bundle.affine_scope, control, checked));
         std::printf("no adjustment: %s\n", r.message.c_str());
         return 2;
@@ -911,13 +981,13 @@ int main(int argc, char** argv) {
       std::vector<CamerasJsonImage> images;
       for (std::size_t i = 0; i < e1.images.size(); ++i)
         images.push_back(CamerasJsonImage::from_frame(e1.images[i].name, name1, adjusted.epoch1[i]));
-      for (std::size_t i = 0; i < e2.images.size(); ++i)
+      for (std::size_t i = 0; i < adjusted.epoch2.size(); ++i)  // none for an orthophoto reference
         images.push_back(CamerasJsonImage::from_frame(e2.images[i].name, name2, adjusted.epoch2[i]));
       AdjustedExportOptions export_options;
       export_options.protected_folders = {dir1, dir2};
       const AdjustedExportReport exported = write_adjusted_export(images, out_dir, export_options);
       if (pictures) write_residual_pictures(out_dir + "/adjusted/residuals", e1, pictures1, adjusted);
-      write_report(out_dir + "/report.json", e1, e2, rough, overlap, precise, options, method, matcher_name,
+      write_report(out_dir + "/report.json", e1, e2, rough, rough_source, overlap, precise, options, method, matcher_name,
                    adjustment_json(adjusted, names, &exported, adjustment_options.bundle.affine_scope, control, checked));
       std::printf("reprojection RMS %.3f -> %.3f px (inter-epoch %.3f -> %.3f px); wrote %s and %s "
                   "(largest COLMAP conversion error %.3f px)\n",

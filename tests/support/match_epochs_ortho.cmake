@@ -1,0 +1,72 @@
+# match_epochs with an orthophoto reference, end to end: make_scene --ortho-reference delivers the
+# recent epoch as a true orthophoto and its true surface (no model, no images); match_epochs
+# co-registers the DSMs, matches epoch 1's photos with the orthophoto's tiles and adjusts epoch 1
+# against them (--adjust; the orthophoto is the fixed reference). Checked: exit 0, Homol/ names the
+# tiles, report.json says the epochs' kinds, the rough transform's source and a successful
+# adjustment, and epoch 1's check points at least 3 times closer after the adjustment than after the
+# rough co-registration. Then the refusals: the orthophoto as epoch 1 with --adjust, an unreadable
+# --rough file; neither writes anything.
+#   cmake -DMAKE_SCENE=... -DMATCH_EPOCHS=... -DWORK=... -P match_epochs_ortho.cmake
+include("${CMAKE_CURRENT_LIST_DIR}/scene_folders.cmake")
+fresh_scene("${WORK}" --image-size 800x600 --images-per-epoch 2x2 --seed 1 --control-points 4 --ortho-reference)
+if(NOT EXISTS "${WORK}/scene/e2/ortho.tif" OR EXISTS "${WORK}/scene/e2/images.txt")
+  message(FATAL_ERROR "make_scene --ortho-reference wrote no orthophoto epoch e2")
+endif()
+folder_fingerprint("${WORK}/scene" before)
+execute_process(COMMAND "${MATCH_EPOCHS}" "${WORK}/scene/e1" "${WORK}/scene/e2" --out "${WORK}/out" --adjust --quiet
+                        --check-points "${WORK}/scene/check_points.txt" --no-pictures
+                RESULT_VARIABLE status OUTPUT_VARIABLE out ERROR_VARIABLE err)
+if(NOT status EQUAL 0)
+  message(FATAL_ERROR "match_epochs against an orthophoto exited with ${status}, expected 0\n${out}\n${err}")
+endif()
+file(GLOB homol RELATIVE "${WORK}/out/Homol" "${WORK}/out/Homol/Pastis*/ortho_x*_y*.tif.txt")
+if(NOT homol)
+  file(GLOB_RECURSE all RELATIVE "${WORK}/out" "${WORK}/out/Homol/*")
+  message(FATAL_ERROR "Homol/ names no orthophoto tile (ortho_x<X>_y<Y>.tif):\n${all}")
+endif()
+file(READ "${WORK}/out/report.json" report)
+if(NOT report MATCHES "\"epochs\": \\[{\"kind\": \"photos\", \"images\": 4}, {\"kind\": \"orthophoto\", \"images\": [0-9]+}\\]")
+  message(FATAL_ERROR "report.json does not give the epochs' kinds:\n${report}")
+endif()
+if(NOT report MATCHES "\"rough_coregistration\": {\"source\": \"dsm\", \"success\": true")
+  message(FATAL_ERROR "report.json does not say the rough transform came from the DSMs:\n${report}")
+endif()
+if(NOT report MATCHES "\"adjustment\": *{\"success\": *true")
+  message(FATAL_ERROR "report.json does not record a successful adjustment:\n${report}")
+endif()
+if(NOT report MATCHES "\"check_points\": {\"rough\": {\"used\": ([0-9]+), \"failed\": 0, \"rms_3d\": ([0-9.e+-]+)")
+  message(FATAL_ERROR "report.json has no check-point figures after the rough co-registration:\n${report}")
+endif()
+set(rough_rms "${CMAKE_MATCH_2}")
+if(NOT report MATCHES "\"adjusted\": {\"used\": ([0-9]+), \"failed\": 0, \"rms_3d\": ([0-9.e+-]+)")
+  message(FATAL_ERROR "report.json has no check-point figures after the adjustment:\n${report}")
+endif()
+set(adjusted_rms "${CMAKE_MATCH_2}")
+# Thousandths in integer math (CMake has no floating-point arithmetic): 3 times better is
+# 3 * adjusted < rough.
+function(in_thousandths value out)
+  if(NOT value MATCHES "^([0-9]+)(\\.([0-9]*))?$")
+    message(FATAL_ERROR "not a plain decimal number: ${value}")
+  endif()
+  string(SUBSTRING "${CMAKE_MATCH_3}000" 0 3 fraction)
+  math(EXPR result "${CMAKE_MATCH_1} * 1000 + 1${fraction} - 1000")
+  set(${out} ${result} PARENT_SCOPE)
+endfunction()
+in_thousandths("${rough_rms}" rough_k)
+in_thousandths("${adjusted_rms}" adjusted_k)
+math(EXPR adjusted_k3 "3 * ${adjusted_k}")
+if(NOT adjusted_k3 LESS rough_k)
+  message(FATAL_ERROR "check points not 3 times better after the adjustment against the orthophoto: ${rough_rms} -> ${adjusted_rms}")
+endif()
+message(STATUS "orthophoto reference: check points 3D RMS ${rough_rms} -> ${adjusted_rms} (epoch-2 units)")
+folder_fingerprint("${WORK}/scene" after)
+if(NOT before STREQUAL after)
+  message(FATAL_ERROR "match_epochs changed its input folders")
+endif()
+
+# The orthophoto as epoch 1 with --adjust: refused before any work, with the reason.
+execute_process(COMMAND "${MATCH_EPOCHS}" "${WORK}/scene/e2" "${WORK}/scene/e1" --out "${WORK}/refused" --adjust --quiet
+                RESULT_VARIABLE status OUTPUT_VARIABLE out ERROR_VARIABLE err)
+if(NOT status EQUAL 1 OR NOT err MATCHES "orthophoto can only be the reference" OR EXISTS "${WORK}/refused")
+  message(FATAL_ERROR "an orthophoto as epoch 1 with --adjust: exit ${status}, expected 1 with the reason and no output\n${err}")
+endif()
