@@ -12,7 +12,8 @@
 // similarity is the "rough" transfer the guided and correlation methods start from. Each method's
 // final matches (old = master, new = secondary) are scored the same way: a homography RANSAC at 3 px
 // (ransac_homography2, --iterations at most), its inliers, their share, and the cells of a 4 x 4
-// grid over the master image holding an inlier. The null model gives the same master points random
+// grid over the master image holding an inlier (a composition filtered by a model of its own:
+// from its tentative matches, see MethodOutput::null_source). The null model gives the same master points random
 // partners within the method's reach (whole-image methods: uniform over the secondary image; guided:
 // uniform in the search disc around the prediction; correlation: uniform in the search square),
 // --draws times with fixed seeds, scored identically. A method beats chance when its inliers are at
@@ -55,6 +56,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include <diachron/camera/ortho_frame.hpp>
 #include <diachron/core/parallel.hpp>
 #include <diachron/core/random.hpp>
 #include <diachron/eval/match_truth.hpp>
@@ -66,6 +68,8 @@
 #include <diachron/matching/descriptor_matching.hpp>
 #include <diachron/matching/grid_interest_points.hpp>
 #include <diachron/matching/guided_matcher.hpp>
+#include <diachron/pipeline/correlation_pair.hpp>
+#include <diachron/pipeline/precise_matching.hpp>
 #include <diachron/robust/robust_estimation.hpp>
 #include <diachron/synth/scene.hpp>
 #include <diachron/terrain/transfer.hpp>
@@ -224,6 +228,12 @@ struct MethodOutput {
   double reach_px = 0.0;  ///< disc radius or square half-side, secondary px
   std::size_t candidates = 0;
   double extra_seconds = 0.0;  ///< shared work (feature extraction) charged to this method
+  /// The matches whose master points the null model draws partners for, when not `matches`: a
+  /// composition whose final filter is itself a geometric RANSAC (the ground filter, a homography)
+  /// keeps only what agrees with one model, so its null starts from its tentative matches, where
+  /// that selection has not been made yet; scored by the same RANSAC, the null's inliers are what
+  /// such a filter would find in random partners.
+  PointMatches null_source;
 };
 
 struct Method {
@@ -298,6 +308,57 @@ MethodOutput correlation(const PairData& p, const CorrelationSetting& s) {
   return out;
 }
 
+/// correlation_match_pair (pipeline/correlation_pair.hpp) through the rough similarity, the
+/// homography as its refit and final model. Its reach is the first pass's search square.
+MethodOutput pair_2d(const PairData& p, CorrelationMeasure measure) {
+  CorrelationPairOptions options;
+  options.match.measure = measure;
+  options.model = PairRefitModel::homography;
+  options.threads = p.threads;
+  const CorrelationPairReport r = correlation_match_pair(p.master, p.secondary, make_map_transfer(p.rough), options);
+  MethodOutput out;
+  out.matches = r.matches;
+  out.null_source = r.tentative();
+  out.reach = ReachKind::square;
+  out.reach_px = options.match.search_radius_px * p.rough.scale;
+  out.candidates = r.points;
+  return out;
+}
+
+/// The pair as match_epochs sees it when each image is an orthophoto epoch in one frame
+/// (--write-epochs' geotransforms: new 1 unit per px, old the similarity's scale, the same top-left
+/// corner; a flat DSM under both) and --rough identity: precise_match_pair_correlation on the two
+/// OrthoFrames with PreciseMatchingOptions' defaults but the measure. Its reach is the first
+/// pass's search square.
+MethodOutput orthophoto_epochs(const PairData& p, CorrelationMeasure measure) {
+  const double top = p.secondary.height();
+  const OrthoFrame old_frame(GeoTransform::north_up(0.0, top, p.rough.scale), p.master.width(), p.master.height());
+  const OrthoFrame new_frame(GeoTransform::north_up(0.0, top, 1.0), p.secondary.width(), p.secondary.height());
+  // A flat DSM of 4-unit cells over both images with a margin.
+  const double cell = 4.0;
+  const double extent = std::max(p.master.width() * p.rough.scale, static_cast<double>(p.secondary.width())) + 8 * cell;
+  const double depth = std::max(p.master.height() * p.rough.scale, static_cast<double>(p.secondary.height())) + 8 * cell;
+  Raster<float> heights(static_cast<int>(std::ceil(extent / cell)), static_cast<int>(std::ceil(depth / cell)));
+  std::fill(heights.begin(), heights.end(), 0.0f);
+  const Dsm flat(std::move(heights), GeoTransform::north_up(-4 * cell, top + 4 * cell, cell));
+  PreciseMatchingOptions options;
+  options.correlation.match.measure = measure;
+  options.threads = p.threads;
+  options.correlation.match.threads = p.threads;
+  options.ground.threads = p.threads;
+  const PreciseImage<OrthoFrame> master{&old_frame, &p.master, nullptr};
+  const PreciseImage<OrthoFrame> secondary{&new_frame, &p.secondary, nullptr};
+  const PrecisePairReport r =
+      precise_match_pair_correlation(master, flat, secondary, flat, Helmert3::identity(), options);
+  MethodOutput out;
+  out.matches = r.matches;
+  out.null_source = r.tentative;
+  out.reach = ReachKind::square;
+  out.reach_px = options.correlation.match.search_radius_px * p.rough.scale;
+  out.candidates = r.tentative.size();
+  return out;
+}
+
 const CorrelationMeasure kMeasures[] = {CorrelationMeasure::intensity, CorrelationMeasure::gradient,
                                         CorrelationMeasure::orientation};
 
@@ -324,12 +385,17 @@ std::vector<Method> all_methods() {
                    [measure, composition](const PairData& p) {
                      return correlation(p, correlation_setting(measure, composition, p.threads));
                    }});
-  // ---- The pipeline's 2D composition (cells, borders, second pass around a refitted transform) ----
-  // PLACE RESERVED: the composition being written in include/diachron/pipeline/ goes here as one
-  // entry per configuration, e.g.
-  //   m.push_back({"composition-orientation", "pipeline 2D composition, defaults",
-  //                [](const PairData& p) { MethodOutput out; /* its matches */ out.reach = ReachKind::square;
-  //                                        out.reach_px = /* its first search, secondary px */; return out; }});
+  // ---- The 2D composition (pipeline/correlation_pair.hpp) under the rough similarity ----
+  for (const CorrelationMeasure measure : kMeasures)
+    m.push_back({std::string("pair2d-") + to_string(measure),
+                 "correlation_match_pair, homography refit, its defaults but the measure",
+                 [measure](const PairData& p) { return pair_2d(p, measure); }});
+  // ---- match_epochs' own composition, the pair made into two orthophoto epochs ----
+  for (const CorrelationMeasure measure : kMeasures)
+    m.push_back({std::string("epochs-") + to_string(measure),
+                 "match_epochs OLD NEW --rough identity on orthophoto epochs (flat DSM): "
+                 "precise_match_pair_correlation, its defaults but the measure",
+                 [measure](const PairData& p) { return orthophoto_epochs(p, measure); }});
   return m;
 }
 
@@ -815,7 +881,8 @@ int main(int argc, char** argv) {
         row.score = score(as_pairs(out.matches), p.master, ransac);
         double sum = 0.0;
         for (int d = 0; d < args.draws; ++d) {
-          const Score null = score(null_pairs(out.matches, out, p, args.seed, d), p.master, ransac);
+          const PointMatches& source = out.null_source.empty() ? out.matches : out.null_source;
+          const Score null = score(null_pairs(source, out, p, args.seed, d), p.master, ransac);
           sum += static_cast<double>(null.inliers);
           row.null_max = std::max(row.null_max, static_cast<double>(null.inliers));
         }
