@@ -44,7 +44,8 @@
 /// Each OPTIONAL member is used only with exactly this signature (const included). A member of that
 /// name with another signature is an error that check_estimator names, never silently ignored.
 /// Models: Similarity2Estimator (geometry/similarity2_estimator.hpp), Helmert3Estimator
-/// (geometry/helmert3_estimator.hpp). docs/concepts.md walks through writing a new one.
+/// (geometry/helmert3_estimator.hpp), Homography2Estimator (geometry/homography2_estimator.hpp).
+/// docs/concepts.md walks through writing a new one.
 
 #include <array>
 #include <cstddef>
