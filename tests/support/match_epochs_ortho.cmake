@@ -4,8 +4,9 @@
 # against them (--adjust; the orthophoto is the fixed reference). Checked: exit 0, Homol/ names the
 # tiles, report.json says the epochs' kinds, the rough transform's source and a successful
 # adjustment, and epoch 1's check points at least 3 times closer after the adjustment than after the
-# rough co-registration. Then the refusals: the orthophoto as epoch 1 with --adjust, an unreadable
-# --rough file; neither writes anything.
+# rough co-registration. Then the orthophoto as epoch 1 with --adjust, refused before any work
+# (exit 1, nothing written), and a given transform (--rough FILE) under which nothing overlaps
+# (exit 2, "no overlapping pair").
 #   cmake -DMAKE_SCENE=... -DMATCH_EPOCHS=... -DWORK=... -P match_epochs_ortho.cmake
 include("${CMAKE_CURRENT_LIST_DIR}/scene_folders.cmake")
 fresh_scene("${WORK}" --image-size 800x600 --images-per-epoch 2x2 --seed 1 --control-points 4 --ortho-reference)
@@ -45,4 +46,14 @@ execute_process(COMMAND "${MATCH_EPOCHS}" "${WORK}/scene/e2" "${WORK}/scene/e1" 
                 RESULT_VARIABLE status OUTPUT_VARIABLE out ERROR_VARIABLE err)
 if(NOT status EQUAL 1 OR NOT err MATCHES "orthophoto can only be the reference" OR EXISTS "${WORK}/refused")
   message(FATAL_ERROR "an orthophoto as epoch 1 with --adjust: exit ${status}, expected 1 with the reason and no output\n${err}")
+endif()
+
+# A given transform under which nothing overlaps: exit 2 with the reason, as a failed co-registration.
+file(WRITE "${WORK}/far.json"
+     "{\"scale\": 1.0, \"rotation\": [1, 0, 0, 0, 1, 0, 0, 0, 1], \"translation\": [1.0e7, 0, 0]}\n")
+execute_process(COMMAND "${MATCH_EPOCHS}" "${WORK}/scene/e1" "${WORK}/scene/e2" --out "${WORK}/far" --rough "${WORK}/far.json"
+                        --quiet
+                RESULT_VARIABLE status OUTPUT_VARIABLE out ERROR_VARIABLE err)
+if(NOT status EQUAL 2 OR NOT out MATCHES "no overlapping pair")
+  message(FATAL_ERROR "--rough FILE with no overlap: exit ${status}, expected 2 and 'no overlapping pair'\n${out}\n${err}")
 endif()
