@@ -989,11 +989,16 @@ int main(int argc, char** argv) {
       if (pictures) write_residual_pictures(out_dir + "/adjusted/residuals", e1, pictures1, adjusted);
       write_report(out_dir + "/report.json", e1, e2, rough, rough_source, overlap, precise, options, method, matcher_name,
                    adjustment_json(adjusted, names, &exported, adjustment_options.bundle.affine_scope, control, checked));
-      std::printf("reprojection RMS %.3f -> %.3f px (inter-epoch %.3f -> %.3f px); wrote %s and %s "
-                  "(largest COLMAP conversion error %.3f px)\n",
-                  r.before.all.rms_px, r.after.all.rms_px, r.before.inter_epoch.rms_px, r.after.inter_epoch.rms_px,
-                  exported.cameras_json_path.c_str(), (out_dir + "/adjusted/<epoch>").c_str(),
-                  exported.max_conversion_error_px);
+      // Against an orthophoto the inter-epoch ties are control points: no inter-epoch RMS to give.
+      char inter[96];
+      if (e2.is_ortho())
+        std::snprintf(inter, sizeof inter, "the orthophoto's matches as control points");
+      else
+        std::snprintf(inter, sizeof inter, "inter-epoch %.3f -> %.3f px", r.before.inter_epoch.rms_px,
+                      r.after.inter_epoch.rms_px);
+      std::printf("reprojection RMS %.3f -> %.3f px (%s); wrote %s and %s (largest COLMAP conversion error %.3f px)\n",
+                  r.before.all.rms_px, r.after.all.rms_px, inter, exported.cameras_json_path.c_str(),
+                  (out_dir + "/adjusted/<epoch>").c_str(), exported.max_conversion_error_px);
     }
 #endif
     return 0;
