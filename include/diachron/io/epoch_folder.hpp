@@ -5,8 +5,9 @@
 /// dsm.tif, in the model's frame; or an orthophoto epoch: `ortho.tif` (any GDAL raster, grey or
 /// colour, with a north-up geotransform) and `dsm.tif` in the same CRS (any grid), the usual modern
 /// reference (a national orthophoto and its DEM). An orthophoto is cut into tiles, each a
-/// pseudo-image of the epoch with an OrthoFrame (camera/ortho_frame.hpp), read on demand. read_epoch_folder() checks the whole folder up front, so a
-/// missing image or an unknown camera stops the run before any work, with the file named. Images
+/// pseudo-image of the epoch with an OrthoFrame (camera/ortho_frame.hpp), read on demand.
+/// read_epoch_folder() checks the whole folder up front, so a missing image or an unknown camera
+/// stops the run before any work, with the file named. Images
 /// are read on demand (EpochFolder::load_image): archives hold hundreds of large scans. Masks are
 /// optional, 0 where a pixel must not be matched (the scan's frame, fiducial marks, clouds:
 /// matching/image_mask.hpp), COLMAP's way (`masks/<image name>.png`) or MicMac's (`<image name
