@@ -17,6 +17,7 @@
 #include <diachron/core/types.hpp>
 #include <diachron/matching/correlation_matcher.hpp>
 #include <diachron/matching/grid_interest_points.hpp>
+#include <diachron/robust/chance_inliers.hpp>
 #include <diachron/terrain/local_affine.hpp>
 #include <diachron/terrain/transfer.hpp>
 
@@ -87,12 +88,26 @@ std::vector<Eigen::Vector2d> chance_points(const Raster<float>& master) {
   return out;
 }
 
+// The per-point threshold alone: the pair test (pair_significance) is off here, and has its own
+// tests below.
 CorrelationMatchOptions chance_options(bool adaptive) {
   CorrelationMatchOptions o;
   o.adaptive_threshold = adaptive;
   o.false_alarm_rate = 0.01;  // the tests' counts below assume 1 %, whatever the default
+  o.pair_significance = 0.0;
   o.threads = 1;
   return o;
+}
+
+// P(X >= k), X binomial(n, p), by summing the terms directly.
+double brute_binomial_tail(std::size_t n, double p, std::size_t k) {
+  double sum = 0.0;
+  for (std::size_t i = k; i <= n; ++i) {
+    double log_term = std::lgamma(n + 1.0) - std::lgamma(i + 1.0) - std::lgamma(n - i + 1.0);
+    log_term += static_cast<double>(i) * std::log(p) + static_cast<double>(n - i) * std::log1p(-p);
+    sum += std::exp(log_term);
+  }
+  return sum;
 }
 
 // The value `brute` of the samples that at most floor(share n) samples exceed, by counting.
@@ -222,6 +237,103 @@ TEST_CASE("Adaptive threshold: its quantiles are the brute-force ones of its nul
   }
 }
 
+TEST_CASE("Pair test: an unrelated pair gives no match, and says why", "[matching]") {
+  // The coarse unrelated textures of the test above: about 1 % of the points pass the adaptive
+  // threshold, as many as chance lets through.
+  const Raster<float> master = chance_image(11, 300, Eigen::Vector2d::Zero(), 2.0);
+  const Raster<float> unrelated = chance_image(12, 300, kChanceShift, 2.0);
+  const std::vector<Eigen::Vector2d> points = chance_points(master);
+  const CorrelationMatchResult untested =
+      diachron::correlation_match(master, unrelated, points, chance_transfer(), chance_options(true));
+  CorrelationMatchOptions o = chance_options(true);
+  o.pair_significance = 1e-3;
+  const CorrelationMatchResult r = diachron::correlation_match(master, unrelated, points, chance_transfer(), o);
+  const diachron::CorrelationThreshold& t = r.threshold;
+  REQUIRE(t.adaptive);
+  INFO(untested.matches.size() << " of " << t.judged << " judged points pass; null rate " << t.null_match_rate
+                               << ", bound " << t.null_match_rate_bound << ", P(chance) " << t.chance_probability);
+  REQUIRE(untested.matches.size() > 0);  // there is something to refuse
+  CHECK(t.rejected_as_chance);
+  CHECK(t.chance_probability > 1e-3);
+  CHECK_FALSE(r.success);
+  CHECK(r.matches.empty());
+  CHECK(r.point_index.empty());
+  CHECK(r.chance == untested.matches.size());
+  CHECK(t.passed == untested.matches.size());
+  CHECK(t.judged == untested.matches.size() + untested.low_score + untested.ambiguous + untested.at_border);
+  for (std::size_t k = 0; k < untested.point_index.size(); ++k)
+    CHECK(r.peaks[untested.point_index[k]].outcome == CorrelationOutcome::chance);
+  // The statistics: a rate of null peaks that would have matched, its bound, the binomial tail.
+  std::size_t above = 0;
+  for (double v : t.null_maxima) above += v >= t.min_score ? 1 : 0;
+  CHECK(t.null_match_rate >= 0.0);
+  CHECK(t.null_match_rate <= static_cast<double>(above) / static_cast<double>(t.null_maxima.size()));
+  CHECK(t.null_match_rate_bound ==
+        Approx(diachron::wilson_upper_bound(t.null_match_rate, static_cast<double>(t.null_maxima.size()), 3.09)));
+  CHECK(t.chance_probability == Approx(brute_binomial_tail(t.judged, t.null_match_rate_bound, t.passed)));
+}
+
+TEST_CASE("Pair test: a related pair keeps every match, also with most of it unrelated", "[matching]") {
+  const Raster<float> master = chance_image(11, 300, Eigen::Vector2d::Zero());
+  const Raster<float> secondary = chance_image(11, 300, kChanceShift);
+  // Only the top 60 rows of the secondary show the master's texture; the rest is another texture.
+  Raster<float> mostly_unrelated = chance_image(12, 300, kChanceShift);
+  for (int y = 0; y < 60; ++y)
+    for (int x = 0; x < 300; ++x) mostly_unrelated(x, y) = secondary(x, y);
+  const std::vector<Eigen::Vector2d> points = chance_points(master);
+  CorrelationMatchOptions tested = chance_options(true);
+  tested.pair_significance = 1e-3;
+  for (const Raster<float>* image : std::vector<const Raster<float>*>{&secondary, &mostly_unrelated}) {
+    const CorrelationMatchResult untested =
+        diachron::correlation_match(master, *image, points, chance_transfer(), chance_options(true));
+    const CorrelationMatchResult r = diachron::correlation_match(master, *image, points, chance_transfer(), tested);
+    INFO(r.threshold.passed << " of " << r.threshold.judged << " pass; bound " << r.threshold.null_match_rate_bound
+                            << ", P(chance) " << r.threshold.chance_probability);
+    CHECK_FALSE(r.threshold.rejected_as_chance);
+    CHECK(r.threshold.chance_probability < 1e-6);
+    CHECK(r.chance == 0);
+    CHECK(r.point_index == untested.point_index);
+    if (image == &mostly_unrelated) CHECK(r.threshold.passed < r.threshold.judged / 4);
+  }
+  // Off (0), or without an adaptive threshold, the test does not run.
+  CorrelationMatchOptions off = tested;
+  off.pair_significance = 0.0;
+  CHECK(std::isnan(diachron::correlation_match(master, secondary, points, chance_transfer(), off)
+                       .threshold.chance_probability));
+  CHECK(std::isnan(diachron::correlation_match(master, secondary, points, chance_transfer(), chance_options(false))
+                       .threshold.chance_probability));
+}
+
+TEST_CASE("Adaptive threshold: a quarter of the eligible points as null surfaces, 256 to null_surfaces", "[matching]") {
+  const Raster<float> master = chance_image(11, 300, Eigen::Vector2d::Zero());
+  const Raster<float> secondary = chance_image(11, 300, kChanceShift);
+  diachron::GridInterestOptions g;
+  g.cell_px = 5;
+  std::vector<Eigen::Vector2d> dense;
+  for (const diachron::InterestPoint& p : diachron::grid_interest_points(master, g)) dense.push_back(p.position);
+  const std::vector<Eigen::Vector2d> sparse = chance_points(master);
+  CorrelationMatchOptions o = chance_options(true);
+  o.null_surfaces = 400;
+  const CorrelationMatchResult rd = diachron::correlation_match(master, secondary, dense, chance_transfer(), o);
+  const CorrelationMatchResult rs = diachron::correlation_match(master, secondary, sparse, chance_transfer(), o);
+  const std::size_t eligible_dense = dense.size() - rd.outside_secondary - rd.outside_master;
+  const std::size_t eligible_sparse = sparse.size() - rs.outside_secondary - rs.outside_master;
+  REQUIRE(eligible_dense / 4 > 400);
+  REQUIRE(eligible_sparse / 4 < 256);
+  // Every draw finds a place inside this image pair for most surfaces; a few leave it.
+  CHECK(rd.threshold.null_maxima.size() <= 400);
+  CHECK(rd.threshold.null_maxima.size() > 300);
+  CHECK(rs.threshold.null_maxima.size() <= 256);
+  CHECK(rs.threshold.null_maxima.size() > 200);
+}
+
+TEST_CASE("Pair test: on by default with the adaptive threshold", "[matching]") {
+  const CorrelationMatchOptions defaults;
+  CHECK(defaults.adaptive_threshold);
+  CHECK(defaults.pair_significance == 1e-3);
+  CHECK(defaults.false_alarm_rate == 0.05);
+}
+
 TEST_CASE("Adaptive threshold: the displaced searches miss the true peak", "[matching]") {
   // A single point: every null surface is its own, around its prediction displaced by 2 R + w or
   // more, so none holds the true peak (a score of about 1 on this noise-free pair).
@@ -310,6 +422,8 @@ TEST_CASE("Adaptive threshold: invalid options name their field", "[matching]") 
   throws_naming([](CorrelationMatchOptions& o) { o.null_surfaces = 0; }, "null_surfaces");
   throws_naming([](CorrelationMatchOptions& o) { o.min_null_surfaces = 0; }, "min_null_surfaces");
   throws_naming([](CorrelationMatchOptions& o) { o.min_null_surfaces = o.null_surfaces + 1; }, "min_null_surfaces");
+  throws_naming([](CorrelationMatchOptions& o) { o.pair_significance = -0.1; }, "pair_significance");
+  throws_naming([](CorrelationMatchOptions& o) { o.pair_significance = 1.0; }, "pair_significance");
 }
 
 TEST_CASE("Grid points into correlation: the overload equals the converted call", "[matching]") {

@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include <diachron/core/error.hpp>
 #include <diachron/core/random.hpp>
 #include <diachron/robust/chance_inliers.hpp>
 
@@ -53,4 +54,29 @@ TEST_CASE("min_significant_inliers: grows with trials and data, counts the sampl
   REQUIRE(c > b);
   REQUIRE(diachron::min_significant_inliers(2, 0.5, 1.0, 0.01, 2) == 3);
   REQUIRE_THROWS_AS(diachron::min_significant_inliers(10, 0.1, 1.0, 0.0, 2), diachron::Error);
+}
+
+TEST_CASE("wilson_upper_bound: the rate whose z-sigma interval just reaches the observed share", "[robust]") {
+  // Brute force: the Wilson bound p solves (p - share)^2 = z^2 p (1 - p) / n for p >= share; find it
+  // by bisection on that equation.
+  for (const double share : {0.0, 0.01, 0.05, 0.3, 0.9, 1.0})
+    for (const double n : {20.0, 256.0, 5000.0}) {
+      CAPTURE(share, n);
+      const double z = 3.09;
+      double lo = share, hi = 1.0;
+      for (int i = 0; i < 200; ++i) {
+        const double mid = 0.5 * (lo + hi);
+        ((mid - share) * (mid - share) < z * z * mid * (1.0 - mid) / n ? lo : hi) = mid;
+      }
+      const double bound = diachron::wilson_upper_bound(share, n, z);
+      CHECK(bound == Approx(lo).margin(1e-12));
+      CHECK(bound >= share);
+      CHECK(bound <= 1.0);
+    }
+  // Nothing seen in 256 trials still allows a rate of a few percent; more trials, less.
+  CHECK(diachron::wilson_upper_bound(0.0, 256.0, 3.09) > 0.03);
+  CHECK(diachron::wilson_upper_bound(0.0, 2560.0, 3.09) < 0.004);
+  CHECK(diachron::wilson_upper_bound(0.2, 100.0, 0.0) == Approx(0.2));
+  CHECK_THROWS_AS(diachron::wilson_upper_bound(0.2, 0.0, 3.09), diachron::Error);
+  CHECK_THROWS_AS(diachron::wilson_upper_bound(1.2, 10.0, 3.09), diachron::Error);
 }

@@ -29,6 +29,7 @@
 #include <diachron/core/types.hpp>
 #include <diachron/matching/grid_interest_points.hpp>
 #include <diachron/matching/point_match.hpp>
+#include <diachron/robust/chance_inliers.hpp>
 #include <diachron/terrain/local_affine.hpp>
 #include <diachron/terrain/transfer.hpp>
 #include <diachron/validation/ncc_validator.hpp>  // detail::ncc_bilinear, the shared sampler
@@ -100,8 +101,9 @@ struct CorrelationMatchOptions {
   /// images give the null scores, so the threshold follows what chance gives on this pair: on a real
   /// inter-epoch orthophoto pair (AppearanceChange) the orientation measure's correct peaks have a
   /// median of 0.23 and chance's 99th percentile is 0.21, where a fixed 0.3 rejects most of them
-  /// (docs/correlation-matching.md, "A threshold against chance").
-  bool adaptive_threshold = false;
+  /// (docs/correlation-matching.md, "A threshold against chance"). With pair_significance, a pair
+  /// where chance explains the matches gives none.
+  bool adaptive_threshold = true;
   /// The share of wrong places whose best score passes the adaptive threshold, per point, in
   /// (0, 0.5]: the threshold is the null maximum that at most floor(rate * n) of the n null maxima
   /// exceed. 0.05: on the decades scenes (30 pairs) 210 correct final matches per pair at 95.7 %
@@ -113,15 +115,27 @@ struct CorrelationMatchOptions {
   /// The largest adaptive threshold, in [adaptive_floor, 1] (1: none). A peak this high is kept
   /// whatever chance gives; at min_score (0.3) the adaptive threshold only ever lowers the fixed one.
   double adaptive_ceiling = 1.0;
-  /// Null surfaces per call (>= 1), on points spread evenly over the list (those whose prediction and
-  /// window are inside both images); their cost is about that many points' matching.
-  int null_surfaces = 256;
+  /// Null surfaces per call, at most (>= 1): a call with n eligible points (prediction and window
+  /// inside both images) correlates min(null_surfaces, max(256, n / 4)) of them, spread evenly over
+  /// the list; their cost is about that many points' matching (at most a quarter more, fewer on
+  /// small calls). The pair test needs many: 256 bound chance's rate only to about +-3 %, and
+  /// refused 19 of 34 decades pairs that hold real matches; 2048 refused 5 weak ones (22 to 53
+  /// final matches) and still every unrelated pair tried (docs/correlation-matching.md).
+  int null_surfaces = 2048;
   /// With fewer usable null surfaces than this (in [1, null_surfaces]), the call keeps min_score and
   /// its threshold says adaptive = false. It should be at least 1 / false_alarm_rate.
   int min_null_surfaces = 100;
   /// Seed of the null displacements: surface j draws from RandomStream(seed, j), so the threshold
   /// does not depend on the threads.
   std::uint64_t seed = 0;
+  /// With an adaptive threshold, the call's matches stand only when more of its points match than
+  /// chance explains: with n points judged (a surface computed) and k matched, P(X >= k) for X
+  /// binomial(n, p), p the upper 99.9 % bound of the share of null surfaces whose peak would have
+  /// been matched, must be at most this, in [0, 1) (0: no test). Otherwise the call has no match
+  /// and its peaks say `chance`. A per-point threshold at a 5 % false-alarm rate lets about 5 % of
+  /// the points of an unrelated pair through by construction; this is what refuses such a pair
+  /// (docs/correlation-matching.md, "A threshold against chance").
+  double pair_significance = 1e-3;
 
   /// Throws diachron::Error naming the first invalid field.
   void check() const {
@@ -150,6 +164,8 @@ struct CorrelationMatchOptions {
     DIACHRON_CHECK(min_null_surfaces >= 1 && min_null_surfaces <= null_surfaces,
                    "CorrelationMatchOptions::min_null_surfaces must be in [1, null_surfaces = "
                        << null_surfaces << "], got " << min_null_surfaces);
+    DIACHRON_CHECK(pair_significance >= 0.0 && pair_significance < 1.0,
+                   "CorrelationMatchOptions::pair_significance must be in [0, 1), got " << pair_significance);
   }
 
   /// The step local_affine is called with: affine_step_px, or half the window when it is 0.
@@ -167,6 +183,8 @@ enum class CorrelationOutcome : std::uint8_t {
   low_score,          ///< the best score is below min_score
   ambiguous,          ///< another peak is within min_margin of the best
   at_border,          ///< the best shift lies on the border of the search: the true peak may be outside
+  chance,             ///< the peak passed, but the call's matches are no more than chance gives
+                      ///< (CorrelationThreshold::rejected_as_chance)
 };
 
 /// The correlation peak of one point.
@@ -199,6 +217,19 @@ struct CorrelationThreshold {
   double null_q99 = std::numeric_limits<double>::quiet_NaN();
   double null_quantile = std::numeric_limits<double>::quiet_NaN();
   double null_max = std::numeric_limits<double>::quiet_NaN();
+
+  /// The pair test (options.pair_significance; run only when `adaptive`). The share of null
+  /// surfaces whose peak would have been matched at min_score (high enough, distinct, not at the
+  /// border), and its upper 99.9 % bound (Wilson), the chance rate the test uses.
+  double null_match_rate = std::numeric_limits<double>::quiet_NaN();
+  double null_match_rate_bound = std::numeric_limits<double>::quiet_NaN();
+  /// Points judged (a surface was computed: matched, low_score, ambiguous or at_border) and of them
+  /// matched, before the test.
+  std::size_t judged = 0, passed = 0;
+  /// P(at least `passed` of `judged` match) at the bound's rate; NaN when the test did not run.
+  double chance_probability = std::numeric_limits<double>::quiet_NaN();
+  /// True when the test ran and chance explains the matches: the call then returns none.
+  bool rejected_as_chance = false;
 };
 
 /// What correlation_match() returns. `matches[k]` is point `point_index[k]` (score = peak score),
@@ -209,7 +240,7 @@ struct CorrelationMatchResult {
   std::vector<std::size_t> point_index;
   std::vector<CorrelationPeak> peaks;
   std::size_t no_prediction = 0, outside_master = 0, outside_secondary = 0, flat = 0, low_score = 0,
-              ambiguous = 0, at_border = 0;
+              ambiguous = 0, at_border = 0, chance = 0;
   /// The score threshold applied (low_score is below threshold.min_score).
   CorrelationThreshold threshold;
 };
@@ -676,6 +707,10 @@ inline double correlation_upper_quantile(std::vector<double> values, double shar
 
 namespace detail {
 
+// Null surfaces of a call with few points (capped by options.null_surfaces): enough for the
+// threshold's quantile however few points are matched.
+constexpr std::size_t kMinNullSurfacesPerCall = 256;
+
 // The adaptive threshold of one call (options.adaptive_threshold): null surface j correlates the
 // master window of an eligible point (spread evenly over `eligible`) around its prediction displaced
 // by a random offset whose Chebyshev norm is in [2 R + window, 2 (2 R + window)) master px, through the
@@ -688,8 +723,15 @@ CorrelationThreshold correlation_null_threshold(const Raster<T>& master, const R
                                                 const std::vector<std::size_t>& eligible, const Transfer& transfer,
                                                 const CorrelationMatchOptions& o) {
   CorrelationThreshold t;
-  const std::size_t samples = eligible.empty() ? 0 : static_cast<std::size_t>(o.null_surfaces);
+  const std::size_t samples =
+      eligible.empty() ? 0
+                       : std::min(static_cast<std::size_t>(o.null_surfaces),
+                                  std::max<std::size_t>(kMinNullSurfacesPerCall, eligible.size() / 4));
   std::vector<double> maxima(samples, std::numeric_limits<double>::quiet_NaN());
+  // Whether the surface's peak is distinct and inside the search: matched at any high enough threshold.
+  std::vector<char> distinct(samples, 0);
+  CorrelationMatchOptions any_score = o;
+  any_score.min_score = -1.0;
   const double reach = 2.0 * o.search_radius_px + o.window_px;
   constexpr std::size_t kChunk = 8;
   parallel_for((samples + kChunk - 1) / kChunk, o.threads, [&](std::size_t chunk) {
@@ -705,22 +747,27 @@ CorrelationThreshold correlation_null_threshold(const Raster<T>& master, const R
         const double norm = rng.uniform(reach, 2.0 * reach);
         const Eigen::Vector2d dir(std::cos(angle), std::sin(angle));
         const Eigen::Vector2d offset = norm / std::max(std::abs(dir.x()), std::abs(dir.y())) * dir;
-        const CorrelationOutcome outcome = correlation_surface_into(master, points[i], secondary,
-                                                                    Eigen::Vector2d(*predictions[i] + *affine * offset),
-                                                                    *affine, o, s, surface);
+        const Eigen::Vector2d displaced = *predictions[i] + *affine * offset;
+        const CorrelationOutcome outcome =
+            correlation_surface_into(master, points[i], secondary, displaced, *affine, o, s, surface);
         if (outcome == CorrelationOutcome::outside_secondary) continue;
         if (outcome == CorrelationOutcome::not_run) {
-          double best = -std::numeric_limits<double>::infinity();
-          for (Eigen::Index k = 0; k < surface.size(); ++k)
-            if (std::isfinite(surface(k)) && surface(k) > best) best = surface(k);
-          if (std::isfinite(best)) maxima[j] = best;
+          const CorrelationPeak peak = correlation_peak(surface, displaced, *affine, any_score);
+          if (peak.outcome != CorrelationOutcome::flat) {
+            maxima[j] = peak.score;
+            distinct[j] = peak.outcome == CorrelationOutcome::matched;
+          }
         }
         break;
       }
     }
   });
-  for (double v : maxima)
-    if (std::isfinite(v)) t.null_maxima.push_back(v);
+  std::vector<char> null_distinct;
+  for (std::size_t j = 0; j < samples; ++j)
+    if (std::isfinite(maxima[j])) {
+      t.null_maxima.push_back(maxima[j]);
+      null_distinct.push_back(distinct[j]);
+    }
   if (!t.null_maxima.empty()) {
     t.null_median = correlation_upper_quantile(t.null_maxima, 0.5);
     t.null_q90 = correlation_upper_quantile(t.null_maxima, 0.1);
@@ -730,7 +777,34 @@ CorrelationThreshold correlation_null_threshold(const Raster<T>& master, const R
   }
   t.adaptive = t.null_maxima.size() >= static_cast<std::size_t>(o.min_null_surfaces);
   t.min_score = t.adaptive ? std::clamp(t.null_quantile, o.adaptive_floor, o.adaptive_ceiling) : o.min_score;
+  if (!t.null_maxima.empty()) {
+    std::size_t matched = 0;
+    for (std::size_t j = 0; j < t.null_maxima.size(); ++j)
+      if (null_distinct[j] && t.null_maxima[j] >= t.min_score) ++matched;
+    const double n = static_cast<double>(t.null_maxima.size());
+    t.null_match_rate = static_cast<double>(matched) / n;
+    t.null_match_rate_bound = wilson_upper_bound(t.null_match_rate, n, 3.09);  // one-sided 99.9 %
+  }
   return t;
+}
+
+// The pair test of options.pair_significance on a call's judged peaks: turns every match into
+// `chance` when chance explains their number.
+inline void correlation_pair_test(std::vector<CorrelationPeak>& peaks, CorrelationThreshold& t,
+                                  const CorrelationMatchOptions& o) {
+  if (!t.adaptive || o.pair_significance <= 0.0) return;
+  for (const CorrelationPeak& p : peaks) {
+    const CorrelationOutcome c = p.outcome;
+    if (c == CorrelationOutcome::matched || c == CorrelationOutcome::low_score ||
+        c == CorrelationOutcome::ambiguous || c == CorrelationOutcome::at_border)
+      ++t.judged;
+    if (c == CorrelationOutcome::matched) ++t.passed;
+  }
+  t.chance_probability = std::exp(log_binomial_tail(t.judged, t.null_match_rate_bound, t.passed));
+  t.rejected_as_chance = t.chance_probability > o.pair_significance;
+  if (!t.rejected_as_chance) return;
+  for (CorrelationPeak& p : peaks)
+    if (p.outcome == CorrelationOutcome::matched) p.outcome = CorrelationOutcome::chance;
 }
 
 }  // namespace detail
@@ -807,6 +881,7 @@ CorrelationMatchResult correlation_match(const Raster<T>& master, const Raster<T
       if (p.outcome == CorrelationOutcome::matched) detail::correlation_refine(secondary, *b0, *affine, judged, s, p);
     }
   });
+  detail::correlation_pair_test(result.peaks, result.threshold, options);
   for (std::size_t i = 0; i < points.size(); ++i) {
     const CorrelationPeak& p = result.peaks[i];
     switch (p.outcome) {
@@ -821,6 +896,7 @@ CorrelationMatchResult correlation_match(const Raster<T>& master, const Raster<T
       case CorrelationOutcome::low_score: ++result.low_score; break;
       case CorrelationOutcome::ambiguous: ++result.ambiguous; break;
       case CorrelationOutcome::at_border: ++result.at_border; break;
+      case CorrelationOutcome::chance: ++result.chance; break;
       case CorrelationOutcome::not_run: break;
     }
   }

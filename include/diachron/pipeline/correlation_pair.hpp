@@ -89,10 +89,27 @@ struct CorrelationPassCounts {
   std::size_t low_score = 0, ambiguous = 0, at_border = 0, outside_master = 0, outside_secondary = 0, flat = 0,
               no_prediction = 0;
   std::size_t masked = 0;  ///< of `matched`, dropped because their secondary window touches a masked pixel
+  /// Peaks that passed in a pass whose matches chance explains (the pair test; then matched is 0).
+  std::size_t chance = 0;
+  /// The pass's score threshold, whether it came from the null surfaces, and its pair test
+  /// (CorrelationThreshold: the share of null peaks matched, its bound, P(chance)).
+  double min_score = std::numeric_limits<double>::quiet_NaN();
+  bool adaptive = false;
+  double null_match_rate = std::numeric_limits<double>::quiet_NaN();
+  double null_match_rate_bound = std::numeric_limits<double>::quiet_NaN();
+  double chance_probability = std::numeric_limits<double>::quiet_NaN();
+  bool rejected_as_chance = false;
 
   /// The counts of `result`.
   static CorrelationPassCounts of(const CorrelationMatchResult& result) {
     CorrelationPassCounts c;
+    c.chance = result.chance;
+    c.min_score = result.threshold.min_score;
+    c.adaptive = result.threshold.adaptive;
+    c.null_match_rate = result.threshold.null_match_rate;
+    c.null_match_rate_bound = result.threshold.null_match_rate_bound;
+    c.chance_probability = result.threshold.chance_probability;
+    c.rejected_as_chance = result.threshold.rejected_as_chance;
     c.matched = result.matches.size();
     c.low_score = result.low_score;
     c.ambiguous = result.ambiguous;
@@ -105,12 +122,21 @@ struct CorrelationPassCounts {
   }
 
   /// "N matched, L low score, A ambiguous, B at the border, O outside the secondary, F flat, P
-  /// without prediction".
+  /// without prediction (score >= S, adaptive)", and when the pair test refused the pass, "; C
+  /// peaks refused as chance: R % of the judged points passed, as many as chance's bound of Q %".
   std::string describe() const {
-    return std::to_string(matched) + " matched, " + std::to_string(low_score) + " low score, " +
-           std::to_string(ambiguous) + " ambiguous, " + std::to_string(at_border) + " at the border, " +
-           std::to_string(outside_secondary) + " outside the secondary, " + std::to_string(flat) + " flat, " +
-           std::to_string(no_prediction) + " without prediction";
+    std::ostringstream text;
+    text << matched << " matched, " << low_score << " low score, " << ambiguous << " ambiguous, " << at_border
+         << " at the border, " << outside_secondary << " outside the secondary, " << flat << " flat, "
+         << no_prediction << " without prediction (score >= " << std::fixed << std::setprecision(3) << min_score
+         << (adaptive ? ", adaptive)" : ", fixed)");
+    if (rejected_as_chance) {
+      const std::size_t judged = chance + low_score + ambiguous + at_border;
+      text << "; " << chance << " peaks refused as chance: " << std::setprecision(1)
+           << (judged ? 100.0 * static_cast<double>(chance) / static_cast<double>(judged) : 0.0)
+           << " % of the judged points passed, no more than chance's " << 100.0 * null_match_rate_bound << " %";
+    }
+    return text.str();
   }
 };
 

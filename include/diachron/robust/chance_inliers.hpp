@@ -7,6 +7,7 @@
 /// hypothesis with the most inliers; over many hypotheses that count is not zero. Reporting it as a
 /// result would give a wrong transform. The bound below says how large a count random data make.
 
+#include <algorithm>
 #include <cmath>
 #include <cstddef>
 #include <limits>
@@ -37,6 +38,18 @@ inline double log_binomial_tail(std::size_t n, double p, std::size_t k) {
     if (jd > nd * p && term < 1e-16 * sum) break;
   }
   return first + std::log(sum);
+}
+
+/// Upper Wilson score bound of a rate `share` observed on `n` > 0 trials, at `z` standard deviations
+/// (3.09: one-sided 99.9 %), in [share, 1]. Stays above 0 when share is 0: a rate measured on a few
+/// hundred samples is known only to about a percent.
+inline double wilson_upper_bound(double share, double n, double z) {
+  DIACHRON_CHECK(share >= 0.0 && share <= 1.0 && n > 0.0 && z >= 0.0,
+                 "wilson_upper_bound needs share in [0, 1], n > 0 and z >= 0, got " << share << ", " << n << ", " << z);
+  const double z2n = z * z / n;
+  const double centre = share + 0.5 * z2n;
+  const double spread = z * std::sqrt(share * (1.0 - share) / n + 0.25 * z2n / n);
+  return std::min(1.0, (centre + spread) / (1.0 + z2n));
 }
 
 /// The smallest inlier count that fewer than `alpha` of all `trials` hypotheses reach by chance,
