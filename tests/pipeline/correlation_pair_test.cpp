@@ -117,9 +117,12 @@ const CpHomographyPair& cp_homography_pair() {
   return pair;
 }
 
+// The defaults with 9 px cells (1900 points instead of 4300 at 6 px: the same checks at half the
+// time; the docs example below keeps the defaults).
 CorrelationPairOptions cp_options(std::size_t threads = 1) {
   CorrelationPairOptions o;
   o.threads = threads;
+  o.interest.cell_px = 9;
   return o;
 }
 
@@ -163,7 +166,7 @@ TEST_CASE("CorrelationPair: a similarity pair is matched to a fraction of a px f
   const CorrelationPairReport r = correlation_match_pair(p.master, p.secondary, rough, cp_options());
   INFO(r.message);
   REQUIRE(r.success);
-  REQUIRE(r.cell_px == 6);
+  REQUIRE(r.cell_px == 9);
   REQUIRE(r.threshold_px == 3.0);
   REQUIRE(r.second_ran);
   REQUIRE(r.refit.success);
@@ -172,7 +175,7 @@ TEST_CASE("CorrelationPair: a similarity pair is matched to a fraction of a px f
   REQUIRE(r.second_counts.matched == r.second_pass.size());
 
   // The final matches: hundreds, all within a fraction of a px of the truth.
-  REQUIRE(r.matches.size() >= 1000);
+  REQUIRE(r.matches.size() >= 800);
   REQUIRE(r.matches.size() == r.final_fit.inliers.size());
   REQUIRE(cp_median_error(r.matches) < 0.05);
   REQUIRE(cp_within(r.matches, 0.5) == r.matches.size());
@@ -208,7 +211,7 @@ TEST_CASE("CorrelationPair: a homography pair is matched and its homography reco
   REQUIRE(r.success);
   REQUIRE(r.refit.success);
   REQUIRE(r.second_ran);
-  REQUIRE(r.matches.size() >= 1000);
+  REQUIRE(r.matches.size() >= 800);
   REQUIRE(cp_median_error(r.matches, truth) < 0.05);
   REQUIRE(cp_within(r.matches, 0.5, truth) == r.matches.size());
   REQUIRE(r.second_pass.size() > r.first_pass.size());
@@ -239,7 +242,7 @@ TEST_CASE("CorrelationPair: masks are honoured on both images", "[pipeline]") {
   const CorrelationPairReport r = correlation_match_pair(p.master, p.secondary, rough, cp_options(), &mask1, &mask2);
   INFO(r.message);
   REQUIRE(r.success);
-  REQUIRE(r.matches.size() >= 300);
+  REQUIRE(r.matches.size() >= 150);
   REQUIRE(cp_within(r.matches, 0.5) == r.matches.size());
   // Every master window (21 px) and every secondary window (about 21 x 1.08 px) lies on usable pixels.
   for (const PointMatches* list : {&r.first_pass, &r.second_pass, &r.matches})
@@ -426,7 +429,8 @@ TEST_CASE("CorrelationPair: the example of docs/two-image-matching.md runs", "[p
   REQUIRE(r.ties.size() == r.report.matches.size());
   REQUIRE(std::abs(r.refined.scale - cp_truth().scale) < 1e-3);
   cp_require_same(r.report.matches,
-                  correlation_match_pair(p.master, p.secondary, make_map_transfer(cp_rough()), cp_options()).matches);
+                  correlation_match_pair(p.master, p.secondary, make_map_transfer(cp_rough()),
+                                         CorrelationPairOptions{}).matches);
 }
 
 TEST_CASE("CorrelationPair: effective_cell_px bounds the points of a large image", "[pipeline]") {
