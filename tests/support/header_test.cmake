@@ -1,13 +1,13 @@
 # Every public header compiles and links alone (included from tests/CMakeLists.txt).
 #
-# One small program per header under include/diachron: the header, included twice (include guard),
-# and an empty main, built at -O0 (the check is about declarations). A declaration that is not
-# included fails the compile.
+# One small source per header under include/diachron: the header, included twice (include guard),
+# and an empty main, compiled with -fsyntax-only (parsed and instantiated, no code: the check is about
+# declarations). A declaration that is not included fails the compile.
 #
 # The building blocks (core/, geometry/, robust/, camera/, terrain/, eval/: small headers, where the
 # Eigen modules are chosen; a header there that includes a composed header, as eval/match_truth.hpp
 # includes synth/, counts as composed, since linking it would emit the composed code again) are also
-# link-checked: GCC's -fkeep-inline-functions makes it emit every inline function of the header, used
+# link-checked, as programs built at -O0: GCC's -fkeep-inline-functions makes it emit every inline function of the header, used
 # or not, so a call whose definition lives in a header that is not included (Eigen's inverse() or
 # determinant() with only <Eigen/Core>: declared there, defined in <Eigen/LU>) is an undefined
 # reference at link time. (Function templates are checked only where the header itself instantiates
