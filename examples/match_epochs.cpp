@@ -335,24 +335,6 @@ CombinedEpoch combined_epoch(const EpochFolder& e, bool one_camera) {
   return out;
 }
 
-// The control-point sigma of matches to an orthophoto reference: inter-epoch matches are weighted
-// as `sigma_px` px observations of epoch 1 (CombinedAdjustmentOptions), so each ground point may be
-// that many of epoch 1's pixels off, in epoch-2 units: the median GSD of epoch 1's images at their
-// centre, moved by the rough Helmert, over the reference DSM's mean height.
-double ortho_control_sigma(const std::vector<Frame<FraserAffine>>& frames1, const Helmert3& epoch2_from_epoch1,
-                           const EpochFolder& reference, double sigma_px) {
-  std::vector<double> gsd;
-  const double z = reference.dsm.statistics().mean;
-  for (const Frame<FraserAffine>& f : transformed_frames(frames1, epoch2_from_epoch1)) {
-    const Vec2 centre(0.5 * (f.camera().width() - 1), 0.5 * (f.camera().height() - 1));
-    if (const std::optional<double> g = gsd_at_height(f, z, centre); g && *g > 0.0) gsd.push_back(*g);
-  }
-  // No GSD (every centre ray misses the mean height): the orthophoto's own cell.
-  if (gsd.empty()) return sigma_px * reference.ortho.cell_size();
-  std::nth_element(gsd.begin(), gsd.begin() + static_cast<std::ptrdiff_t>(gsd.size() / 2), gsd.end());
-  return sigma_px * gsd[gsd.size() / 2];
-}
-
 std::string json_rms(const ResidualRms& r) {
   std::ostringstream o;
   o.precision(6);
@@ -914,8 +896,9 @@ int main(int argc, char** argv) {
       if (e2.is_ortho()) {
         std::vector<OrthoFrame> tiles;
         for (const EpochImage& t : e2.images) tiles.push_back(*t.ortho);
-        const double sigma = ortho_control_sigma(combined1.frames, rough.epoch2_from_epoch1, e2,
-                                                 adjustment_options.bundle.inter_epoch_sigma_px);
+        const double sigma =
+            orthophoto_control_sigma(combined1.frames, rough.epoch2_from_epoch1, e2.dsm.statistics().mean,
+                                     e2.ortho.cell_size(), adjustment_options.bundle.inter_epoch_sigma_px);
         const OrthophotoControlPoints from_ortho = orthophoto_control_points(precise.pairs, tiles, e2.dsm, sigma);
         all_control.insert(all_control.end(), from_ortho.points.begin(), from_ortho.points.end());
         std::printf("orthophoto reference: %zu of %zu matches as control points (sigma %.3g epoch-2 units), %zu "
