@@ -5,8 +5,8 @@
 # tiles, report.json says the epochs' kinds, the rough transform's source and a successful
 # adjustment, and epoch 1's check points at least 3 times closer after the adjustment than after the
 # rough co-registration. Then the orthophoto as epoch 1 with --adjust, refused before any work
-# (exit 1, nothing written), and a given transform (--rough FILE) under which nothing overlaps
-# (exit 2, "no overlapping pair").
+# (exit 1, nothing written), a given transform (--rough FILE) under which nothing overlaps
+# (exit 2, "no overlapping pair"), and one a few units off (exit 0, most of the matches).
 #   cmake -DMAKE_SCENE=... -DMATCH_EPOCHS=... -DWORK=... -P match_epochs_ortho.cmake
 include("${CMAKE_CURRENT_LIST_DIR}/scene_folders.cmake")
 fresh_scene("${WORK}" --image-size 800x600 --images-per-epoch 2x2 --seed 1 --control-points 4 --ortho-reference)
@@ -57,3 +57,52 @@ execute_process(COMMAND "${MATCH_EPOCHS}" "${WORK}/scene/e1" "${WORK}/scene/e2" 
 if(NOT status EQUAL 2 OR NOT out MATCHES "no overlapping pair")
   message(FATAL_ERROR "--rough FILE with no overlap: exit ${status}, expected 2 and 'no overlapping pair'\n${out}\n${err}")
 endif()
+
+# A given transform a little wrong, as a previous run or GCPs give: the DSM co-registration's own
+# rough_helmert.json from the first run, moved 10 epoch-2 units east (5.3 m on this scene's ground,
+# about 5 of epoch 1's pixels: inside the correlation's +-12 px search). The second pass around the refitted transform recovers: exit 0, the
+# report names the file, and at least half the first run's final matches.
+file(READ "${WORK}/out/rough_helmert.json" given)
+string(REGEX MATCH "\"translation\": \\[([-0-9.e+]+)," tx "${given}")
+if(NOT tx)
+  message(FATAL_ERROR "rough_helmert.json has no translation:\n${given}")
+endif()
+set(x "${CMAKE_MATCH_1}")
+if(x MATCHES "[eE]")
+  message(FATAL_ERROR "the test shifts a translation written in decimals, got ${x}")
+endif()
+# x + 10 on the decimal text (CMake's math is integer-only): the integer part moves by 10, which for
+# a negative x of magnitude at least 10 is -(i.f) + 10 = -((i - 10).f).
+string(REGEX MATCH "^(-?)([0-9]+)(.*)$" _parts "${x}")
+set(sign "${CMAKE_MATCH_1}")
+set(int_part "${CMAKE_MATCH_2}")
+set(rest "${CMAKE_MATCH_3}")
+if(sign STREQUAL "-")
+  math(EXPR int_part "${int_part} - 10")
+  if(int_part LESS 0)
+    message(FATAL_ERROR "the test's shift needs |x| >= 10, got ${x}")
+  endif()
+else()
+  math(EXPR int_part "${int_part} + 10")
+endif()
+string(REPLACE "\"translation\": [${x}," "\"translation\": [${sign}${int_part}${rest}," shifted "${given}")
+file(WRITE "${WORK}/shifted.json" "${shifted}")
+execute_process(COMMAND "${MATCH_EPOCHS}" "${WORK}/scene/e1" "${WORK}/scene/e2" --out "${WORK}/shifted" --rough
+                        "${WORK}/shifted.json" --quiet --no-pictures
+                RESULT_VARIABLE status OUTPUT_VARIABLE out ERROR_VARIABLE err)
+if(NOT status EQUAL 0)
+  message(FATAL_ERROR "--rough FILE 10 units off: exit ${status}, expected 0\n${out}\n${err}")
+endif()
+file(READ "${WORK}/shifted/report.json" shifted_report)
+if(NOT shifted_report MATCHES "\"rough_coregistration\": {\"source\": \"file\"")
+  message(FATAL_ERROR "report.json does not say the rough transform came from the file:\n${shifted_report}")
+endif()
+string(REGEX MATCH "\"final\": ([0-9]+)" _m "${report}")
+set(first_final "${CMAKE_MATCH_1}")
+string(REGEX MATCH "\"final\": ([0-9]+)" _m "${shifted_report}")
+set(shifted_final "${CMAKE_MATCH_1}")
+math(EXPR twice "2 * ${shifted_final}")
+if(NOT first_final OR twice LESS first_final)
+  message(FATAL_ERROR "--rough FILE 10 units off: ${shifted_final} final matches, against ${first_final} from the DSMs' own transform")
+endif()
+message(STATUS "--rough FILE 10 units off: ${shifted_final} final matches (${first_final} from the DSMs' own transform)")
