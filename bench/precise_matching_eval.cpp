@@ -44,7 +44,8 @@
 //   guided-sift     the same with plain SIFT descriptors
 //   patch-sift, patch-akaze, patch-xfeat   one-to-one transfer-guided tiles, then the filters
 //   correlation     grid interest points correlated around their prediction (docs/correlation-matching.md);
-//                   correlation-intensity|gradient|orientation: the same with that measure
+//                   correlation-intensity|gradient|orientation: the same with that measure. The
+//                   adaptive threshold unless --min-score S sets a fixed one.
 // For every seed of SceneOptions::decades_apart(): the rough co-registration of the two epoch DSMs
 // (today's defaults) gives the Helmert; overlapping_pairs() gives the pairs (estimated frames and
 // the epoch DSMs, as a user has them); every method runs on the same pairs. Stages: tentative,
@@ -329,7 +330,10 @@ int main(int argc, char** argv) {
     if (args.corr_window > 0) options.correlation.match.window_px = args.corr_window;
     if (args.second_pass >= 0) options.correlation.second_pass_radius_px = args.second_pass;
     if (args.cell > 0) options.correlation.use_fixed_cell(args.cell);
-    if (std::isfinite(args.min_score)) options.correlation.match.min_score = args.min_score;
+    if (std::isfinite(args.min_score)) {  // a fixed threshold: the adaptive one would ignore it
+      options.correlation.match.min_score = args.min_score;
+      options.correlation.match.adaptive_threshold = false;
+    }
     if (std::isfinite(args.min_margin)) options.correlation.match.min_margin = args.min_margin;
     // --ground-gsd sets the correlation method's threshold (the descriptor methods keep the paper's).
     if (std::isfinite(args.ground_gsd)) options.correlation.ground_threshold_gsd = args.ground_gsd;

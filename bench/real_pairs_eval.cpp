@@ -272,7 +272,8 @@ MethodOutput guided(const PairData& p, bool root) {
 }
 
 /// The settings of correlation matching as the composition uses them: 6 px cells, points kept the
-/// window's margin from the edge, every distinct peak kept (min_score 0).
+/// window's margin from the edge, every distinct peak kept (the fixed min_score 0, no adaptive
+/// threshold). Otherwise the components' defaults (the adaptive threshold since 2026-11-29).
 struct CorrelationSetting {
   GridInterestOptions interest;
   CorrelationMatchOptions match;
@@ -286,6 +287,7 @@ CorrelationSetting correlation_setting(CorrelationMeasure measure, bool composit
     s.interest.cell_px = 6;
     s.interest.border_px = s.match.window_px / 2 + 2;
     s.match.min_score = 0.0;
+    s.match.adaptive_threshold = false;
   }
   return s;
 }
