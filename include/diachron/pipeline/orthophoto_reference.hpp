@@ -67,22 +67,22 @@ OrthophotoControlPoints orthophoto_control_points(const PairReports& pairs, cons
 
 /// The control-point sigma for matches to an orthophoto reference, in the reference's units:
 /// `sigma_px` of epoch 1's pixels on the ground, i.e. sigma_px times the median GSD of `frames1`
-/// (epoch 1's images, any frame type with camera().width()/height(), moved into the reference's
-/// frame by `epoch2_from_epoch1`) at their centre over `reference_height` (e.g. the DSM's mean).
+/// (epoch 1's images, Frame<D> of any distortion, moved into the reference's frame by
+/// `epoch2_from_epoch1`) at their centre over `reference_height` (e.g. the DSM's mean).
 /// Inter-epoch matches are weighted as 6 px observations of epoch 1 in the combined adjustment
 /// (CombinedAdjustmentOptions), hence match_epochs' sigma_px: a matched ground point may be that many
 /// of epoch 1's pixels off. When no centre ray meets that height, sigma_px times `fallback_gsd` (> 0,
 /// e.g. the orthophoto's cell).
 /// @throws diachron::Error for a non-positive or non-finite sigma_px or fallback_gsd.
-template <class Frame>
-double orthophoto_control_sigma(const std::vector<Frame>& frames1, const Helmert3& epoch2_from_epoch1,
+template <class Distortion>
+double orthophoto_control_sigma(const std::vector<Frame<Distortion>>& frames1, const Helmert3& epoch2_from_epoch1,
                                 double reference_height, double fallback_gsd, double sigma_px) {
   DIACHRON_CHECK(std::isfinite(sigma_px) && sigma_px > 0.0,
                  "orthophoto_control_sigma: sigma_px must be finite and > 0, got " << sigma_px);
   DIACHRON_CHECK(std::isfinite(fallback_gsd) && fallback_gsd > 0.0,
                  "orthophoto_control_sigma: fallback_gsd must be finite and > 0, got " << fallback_gsd);
   std::vector<double> gsd;
-  for (const Frame& f : transformed_frames(frames1, epoch2_from_epoch1)) {
+  for (const Frame<Distortion>& f : transformed_frames(frames1, epoch2_from_epoch1)) {
     const Eigen::Vector2d centre(0.5 * (f.camera().width() - 1), 0.5 * (f.camera().height() - 1));
     if (const std::optional<double> g = gsd_at_height(f, reference_height, centre); g && *g > 0.0)
       gsd.push_back(*g);
