@@ -80,6 +80,7 @@
 #include <diachron/vision/sift.hpp>
 #include <diachron/vision/xfeat.hpp>
 
+#include "calm_scene.hpp"
 #include "match_scoring.hpp"
 #include "peak_shape.hpp"
 
@@ -93,6 +94,8 @@ using diachron::bench::Scored;
 using diachron::bench::split_list;
 using diachron::bench::seconds_since;
 using diachron::bench::peak_shape;
+using diachron::bench::calm_scene;
+using diachron::bench::require_calm_parts;
 using diachron::bench::scale_images;
 
 namespace {
@@ -177,14 +180,7 @@ Arguments parse(int argc, char** argv) {
     else if (s == "--calm") a.calm = true;
     else if (s == "--calm-only") {
       a.calm_only = split_list(value());
-      const std::vector<std::string> parts = {"changes", "sun", "cover", "film", "tone", "blur", "grain", "defects"};
-      for (const std::string& part : a.calm_only)
-        if (std::find(parts.begin(), parts.end(), part) == parts.end()) {
-          std::string known;
-          for (const std::string& p : parts) known += (known.empty() ? "" : ", ") + p;
-          std::fprintf(stderr, "unknown --calm-only part %s (%s)\n", part.c_str(), known.c_str());
-          std::exit(1);
-        }
+      require_calm_parts(a.calm_only, "--calm-only");
     }
     else if (s == "--dump") a.dump = value();
     else if (s == "--scan-frame") {
@@ -368,44 +364,7 @@ int main(int argc, char** argv) {
       SceneOptions scene_options = SceneOptions::decades_apart();
       scene_options.seed = args.first_seed + static_cast<std::uint64_t>(s);
       scene_options.threads = args.threads;
-      const auto calm = [&args](const char* part) {
-        return args.calm || std::find(args.calm_only.begin(), args.calm_only.end(), part) != args.calm_only.end();
-      };
-      if (calm("changes")) {
-        ChangeOptions none;  // the decades' own changes (trees, layouts, roads) are 0 by default
-        none.changed_field_fraction = none.removed_building_fraction = none.new_building_fraction = 0.0;
-        none.seasonal_shift = 0.0;
-        scene_options.changes = none;
-        scene_options.texture.bush_removal_probability = 0.0;
-      }
-      LookOptions& look1 = scene_options.epochs[0].look;
-      const LookOptions& look2 = scene_options.epochs[1].look;
-      if (calm("sun")) {
-        look1.sun_azimuth_deg = look2.sun_azimuth_deg;
-        look1.sun_elevation_deg = look2.sun_elevation_deg;
-      }
-      if (calm("cover")) look1.land_cover = look2.land_cover;
-      // The film's parts one at a time (film takes them all away at once).
-      if (calm("tone")) look1.tone_curve = look2.tone_curve;
-      if (calm("blur")) look1.blur_sigma_px = look2.blur_sigma_px;
-      if (calm("grain")) {
-        look1.grain_sigma = look2.grain_sigma;
-        look1.grain_size_px = look2.grain_size_px;
-      }
-      if (calm("defects")) {
-        look1.scan_line_sigma = look2.scan_line_sigma;
-        look1.scan_stripes = look2.scan_stripes;
-        look1.scratches = look2.scratches;
-        look1.dust_per_megapixel = look2.dust_per_megapixel;
-      }
-      if (calm("film")) {
-        const LookOptions keep = look1;
-        look1 = look2;
-        look1.sun_azimuth_deg = keep.sun_azimuth_deg;
-        look1.sun_elevation_deg = keep.sun_elevation_deg;
-        look1.land_cover = keep.land_cover;
-        look1.jpeg_quality = 0;
-      }
+      calm_scene(scene_options, args.calm_only, args.calm);
       for (std::size_t e = 0; e < scene_options.epochs.size(); ++e)
         scale_images(scene_options.epochs[e], args.scan_scale * (e == 1 ? args.e2_scale : 1.0));
       if (args.flying_height > 0.0)

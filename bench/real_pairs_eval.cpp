@@ -3,7 +3,7 @@
 //
 //   real_pairs_eval [--data DIR] [--pairs LIST] [--methods LIST] [--threads N] [--iterations N]
 //                   [--draws N] [--seed S] [--stats-points N] [--no-stats] [--json FILE]
-//                   [--decades N] [--decades-first-seed S] [--decades-pairs N]
+//                   [--decades N] [--decades-first-seed S] [--decades-pairs N] [--decades-calm LIST]
 //                   [--pictures DIR] [--write-epochs DIR [--dsm flat|grey] [--dsm-metres-per-level M]
 //                   [--dsm-cell U]]
 //
@@ -27,7 +27,9 @@
 // reference. Then the same on --decades N (1; 0: none) decades-apart synthetic scenes
 // (SceneOptions::decades_apart(), seeds from --decades-first-seed, --decades-pairs image pairs each)
 // against the true transfer, correlation_match predicting through the epoch DSMs and the true
-// Helmert, all side by side.
+// Helmert, all side by side. --decades-calm LIST takes parts of the decades away from those scenes
+// (changes, sun, cover, film, tone, blur, grain, defects: bench/calm_scene.hpp), to tell which part
+// makes their statistics differ from the real pairs'.
 //
 // --pictures DIR: per pair and method DIR/<pair>_<method>.jpg: the master in grey with the secondary
 // warped in through the fitted homography as a 64 px checkerboard (each stretched between its 1st
@@ -77,12 +79,15 @@
 #include <diachron/vision/sift.hpp>
 
 #include "bench_common.hpp"
+#include "calm_scene.hpp"
 
 #ifndef DIACHRON_BENCH_DATA_DIR
 #define DIACHRON_BENCH_DATA_DIR "../shared/data"
 #endif
 
 using namespace diachron;
+using diachron::bench::calm_scene;
+using diachron::bench::require_calm_parts;
 namespace {
 
 double seconds_since(std::chrono::steady_clock::time_point t0) {
@@ -114,6 +119,7 @@ struct Arguments {
   int decades = 1;                   // decades seeds for the side-by-side statistics (0: none)
   std::uint64_t decades_first_seed = 0;
   std::size_t decades_pairs = 3;     // image pairs per decades seed
+  std::vector<std::string> decades_calm;  // parts of the decades taken away (calm_scene.hpp)
   std::string json, pictures, write_epochs;
   std::string dsm = "flat";
   double dsm_metres_per_level = 1.0;
@@ -144,6 +150,10 @@ Arguments parse(int argc, char** argv) {
     else if (s == "--decades") a.decades = std::stoi(value());
     else if (s == "--decades-first-seed") a.decades_first_seed = std::stoull(value());
     else if (s == "--decades-pairs") a.decades_pairs = std::stoul(value());
+    else if (s == "--decades-calm") {
+      a.decades_calm = split_list(value());
+      require_calm_parts(a.decades_calm, "--decades-calm");
+    }
     else if (s == "--json") a.json = value();
     else if (s == "--pictures") a.pictures = value();
     else if (s == "--write-epochs") a.write_epochs = value();
@@ -604,7 +614,8 @@ MeasureStats peak_statistics(const PairData& p, const Homography2& reference, Co
 /// counted within 3 px of the truth, out of the points the truth can score. One MeasureStats per
 /// measure, over all pairs.
 std::vector<MeasureStats> decades_statistics(int seeds, std::uint64_t first_seed, std::size_t pairs_per_seed,
-                                             std::size_t max_points, std::size_t threads, std::uint64_t seed) {
+                                             std::size_t max_points, std::size_t threads, std::uint64_t seed,
+                                             const std::vector<std::string>& calm) {
   std::vector<MeasureStats> out;
   std::vector<std::vector<double>> ref(std::size(kMeasures)), rnd(std::size(kMeasures));
   for (const CorrelationMeasure m : kMeasures) {
@@ -616,6 +627,7 @@ std::vector<MeasureStats> decades_statistics(int seeds, std::uint64_t first_seed
     SceneOptions options = SceneOptions::decades_apart();
     options.seed = first_seed + static_cast<std::uint64_t>(si);
     options.threads = threads;
+    calm_scene(options, calm);
     const auto t0 = std::chrono::steady_clock::now();
     const Scene scene = generate_scene(options);
     const SyntheticEpoch& e1 = scene.epochs[0];
@@ -961,12 +973,20 @@ int main(int argc, char** argv) {
     json << "]";
     if (args.stats && args.decades > 0) {
       std::vector<MeasureStats> d = decades_statistics(args.decades, args.decades_first_seed, args.decades_pairs,
-                                                       args.stats_points, args.threads, args.seed);
+                                                       args.stats_points, args.threads, args.seed, args.decades_calm);
       std::ostringstream label;
-      label << "decades seeds " << args.decades_first_seed << ".." << args.decades_first_seed + args.decades - 1
-            << " (truth; matches predicted through the DSMs and the true Helmert)";
+      label << "decades seeds " << args.decades_first_seed << ".." << args.decades_first_seed + args.decades - 1;
+      if (!args.decades_calm.empty()) {
+        label << " without";
+        for (const std::string& part : args.decades_calm) label << ' ' << part;
+      }
+      label << " (truth; matches predicted through the DSMs and the true Helmert)";
       all_stats.emplace_back(label.str(), d);
       json << ", \"decades\": {\"seeds\": " << args.decades << ", \"first_seed\": " << args.decades_first_seed
+           << ", \"calm\": [";
+      for (std::size_t k = 0; k < args.decades_calm.size(); ++k)
+        json << (k ? ", " : "") << json_quoted(args.decades_calm[k]);
+      json << "]"
            << ", \"statistics\": [";
       for (std::size_t k = 0; k < d.size(); ++k) json << (k ? ", " : "") << stats_json(d[k]);
       json << "]}";
