@@ -91,25 +91,15 @@ struct CorrelationPassCounts {
   std::size_t masked = 0;  ///< of `matched`, dropped because their secondary window touches a masked pixel
   /// Peaks that passed in a pass whose matches chance explains (the pair test; then matched is 0).
   std::size_t chance = 0;
-  /// The pass's score threshold, whether it came from the null surfaces, and its pair test
-  /// (CorrelationThreshold: the share of null peaks matched, its bound, P(chance)).
-  double min_score = std::numeric_limits<double>::quiet_NaN();
-  bool adaptive = false;
-  double null_match_rate = std::numeric_limits<double>::quiet_NaN();
-  double null_match_rate_bound = std::numeric_limits<double>::quiet_NaN();
-  double chance_probability = std::numeric_limits<double>::quiet_NaN();
-  bool rejected_as_chance = false;
+  /// The pass's score threshold and its pair test (whether adaptive, the null statistics, the points
+  /// judged and passed, P(chance), rejected_as_chance), as correlation_match reported them.
+  CorrelationThreshold threshold;
 
   /// The counts of `result`.
   static CorrelationPassCounts of(const CorrelationMatchResult& result) {
     CorrelationPassCounts c;
     c.chance = result.chance;
-    c.min_score = result.threshold.min_score;
-    c.adaptive = result.threshold.adaptive;
-    c.null_match_rate = result.threshold.null_match_rate;
-    c.null_match_rate_bound = result.threshold.null_match_rate_bound;
-    c.chance_probability = result.threshold.chance_probability;
-    c.rejected_as_chance = result.threshold.rejected_as_chance;
+    c.threshold = result.threshold;
     c.matched = result.matches.size();
     c.low_score = result.low_score;
     c.ambiguous = result.ambiguous;
@@ -128,13 +118,14 @@ struct CorrelationPassCounts {
     std::ostringstream text;
     text << matched << " matched, " << low_score << " low score, " << ambiguous << " ambiguous, " << at_border
          << " at the border, " << outside_secondary << " outside the secondary, " << flat << " flat, "
-         << no_prediction << " without prediction (score >= " << std::fixed << std::setprecision(3) << min_score
-         << (adaptive ? ", adaptive)" : ", fixed)");
-    if (rejected_as_chance) {
-      const std::size_t judged = chance + low_score + ambiguous + at_border;
+         << no_prediction << " without prediction (score >= " << std::fixed << std::setprecision(3)
+         << threshold.min_score << (threshold.adaptive ? ", adaptive)" : ", fixed)");
+    if (threshold.rejected_as_chance) {
+      const double judged = static_cast<double>(threshold.judged);
       text << "; " << chance << " peaks refused as chance: " << std::setprecision(1)
-           << (judged ? 100.0 * static_cast<double>(chance) / static_cast<double>(judged) : 0.0)
-           << " % of the judged points passed, no more than chance's " << 100.0 * null_match_rate_bound << " %";
+           << (judged > 0.0 ? 100.0 * static_cast<double>(threshold.passed) / judged : 0.0)
+           << " % of the judged points passed, no more than chance's " << 100.0 * threshold.null_match_rate_bound
+           << " %";
     }
     return text.str();
   }
