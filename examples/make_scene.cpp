@@ -7,10 +7,11 @@
 ///              [--image-size WxH] [--epochs N] [--check-points N] [--dome M] [--offset X,Y]
 ///              [--scan-frame PX] [--control-points N] [--ortho-reference] [--threads N]
 ///
-/// `--preset decades` starts from SceneOptions::decades_apart() and the other flags apply on top of
-/// it, so that `make_scene OUT --preset decades --seed N` writes exactly the scene generate_scene()
-/// makes from decades_apart() with seed N. `--ortho-reference` then delivers the last epoch as a
-/// true orthophoto and its true surface (synth/ortho_reference.hpp) instead of images and a model.
+/// `--preset decades` starts from SceneOptions::decades_apart(N) (`--epochs N`, 2 to 5, default 2)
+/// and the other flags apply on top of it, so that `make_scene OUT --preset decades --seed S` writes
+/// exactly the scene generate_scene() makes from decades_apart() with seed S. `--ortho-reference`
+/// then delivers the last epoch as a true orthophoto and its true surface (synth/ortho_reference.hpp)
+/// instead of images and a model.
 
 #include <chrono>
 #include <ctime>
@@ -38,14 +39,15 @@ namespace {
 
 constexpr const char* kUsage =
     "usage: make_scene OUT_DIR [options]\n"
-    "  --preset NAME            plain (default: the small test scene) or decades (SceneOptions::decades_apart();\n"
-    "                           the options below apply on top of it)\n"
+    "  --preset NAME            plain (default: the small test scene) or decades (SceneOptions::decades_apart(N)\n"
+    "                           with N = --epochs; the options below apply on top of it)\n"
     "  --seed N                 random seed (default 0)\n"
     "  --dem PATH               real DEM (GeoTIFF) as terrain instead of procedural relief (one in\n"
     "                           degrees is first reprojected to its UTM zone)\n"
     "  --images-per-epoch RxC   flight lines x images per line of every epoch (plain default 2x3)\n"
     "  --image-size WxH         image size in pixels (plain default 400x300; focal length scales with W)\n"
-    "  --epochs N               number of epochs, oldest first (plain only; default 2)\n"
+    "  --epochs N               number of epochs, oldest first (default 2; plain: 1 to 100, the last one\n"
+    "                           recent; decades: 2 to 5, film flights of the 1950s to 1980s and a recent one)\n"
     "  --check-points N         check points wanted (plain default 100)\n"
     "  --dome M                 dome bending of every epoch DSM, metres (plain default 0)\n"
     "  --offset X,Y             world X, Y of the scene centre, metres (default 0,0; procedural only)\n"
@@ -144,8 +146,7 @@ Arguments parse(int argc, char** argv) {
         a.size = std::make_pair(parse_number<int>(w, arg), parse_number<int>(h, arg));
         if (a.size->first < 16 || a.size->second < 16) usage_error("--image-size needs at least 16x16");
       } else if (arg == "--epochs") {
-        a.epochs = parse_number<int>(value, arg);
-        if (*a.epochs < 1 || *a.epochs > 100) usage_error("--epochs must be in [1, 100]");
+        a.epochs = parse_number<int>(value, arg);  // its range depends on the preset, checked below
       } else if (arg == "--check-points") {
         a.check_points = parse_number<int>(value, arg);
         if (*a.check_points < 0) usage_error("--check-points must be >= 0");
@@ -175,7 +176,9 @@ Arguments parse(int argc, char** argv) {
     }
   }
   if (a.out_dir.empty()) usage_error("missing OUT_DIR");
-  if (a.preset == "decades" && a.epochs && *a.epochs != 2) usage_error("--preset decades has two epochs");
+  if (a.epochs && a.preset == "decades" && (*a.epochs < 2 || *a.epochs > 5))
+    usage_error("--epochs must be in [2, 5] with --preset decades");
+  if (a.epochs && a.preset == "plain" && (*a.epochs < 1 || *a.epochs > 100)) usage_error("--epochs must be in [1, 100]");
   if (a.ortho_reference && a.epochs && *a.epochs < 2) usage_error("--ortho-reference needs at least two epochs");
   return a;
 }
@@ -197,7 +200,8 @@ diachron::SceneOptions plain_options(int epochs) {
 
 diachron::SceneOptions scene_options(const Arguments& args) {
   diachron::SceneOptions options =
-      args.preset == "decades" ? diachron::SceneOptions::decades_apart() : plain_options(args.epochs.value_or(2));
+      args.preset == "decades" ? diachron::SceneOptions::decades_apart(args.epochs.value_or(2))
+                               : plain_options(args.epochs.value_or(2));
   options.seed = args.seed;
   options.threads = args.threads;
   if (args.check_points) options.check_points = *args.check_points;

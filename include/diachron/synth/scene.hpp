@@ -58,6 +58,61 @@ struct CheckPoint {
   std::vector<Observation> observations;
 };
 
+/// The probability of a change drawn anew at each of `steps` steps (an independent draw per item
+/// and step, as ChangeOptions' fractions are) such that an item changes at least once over all of
+/// them with probability `total`: 1 - (1 - p)^steps = total. `total` in [0, 1], `steps` >= 1;
+/// exactly `total` for one step. Throws diachron::Error otherwise.
+inline double per_step_fraction(double total, int steps) {
+  DIACHRON_CHECK(total >= 0.0 && total <= 1.0 && steps >= 1,
+                 "per_step_fraction: total must be in [0, 1] and steps >= 1, got " << total << " and " << steps);
+  if (steps == 1) return total;
+  return 1.0 - std::pow(1.0 - total, 1.0 / steps);
+}
+
+/// The relative growth per step that compounds to `total` over `steps` steps:
+/// (1 + g)^steps = 1 + total. `total` >= 0, `steps` >= 1; exactly `total` for one step.
+/// Throws diachron::Error otherwise.
+inline double per_step_growth(double total, int steps) {
+  DIACHRON_CHECK(total >= 0.0 && std::isfinite(total) && steps >= 1,
+                 "per_step_growth: total must be finite and >= 0 and steps >= 1, got " << total << " and " << steps);
+  if (steps == 1) return total;
+  return std::pow(1.0 + total, 1.0 / steps) - 1.0;
+}
+
+/// The ChangeOptions of one step of a history of `steps` steps (epochs - 1) whose change from the
+/// first epoch to the last is `total`'s, since ChangeOptions apply at each new epoch. Returns
+/// `total` itself for one step. Throws diachron::Error for invalid `total` or `steps` < 1.
+inline ChangeOptions changes_per_step(const ChangeOptions& total, int steps) {
+  total.check();
+  DIACHRON_CHECK(steps >= 1, "changes_per_step: steps must be >= 1, got " << steps);
+  if (steps == 1) return total;
+  ChangeOptions c = total;
+  // Drawn anew per item at each step: a field's crop, a region's layout, a building, a tree, a
+  // stand changes at least once over the steps with the total's probability.
+  c.changed_field_fraction = per_step_fraction(total.changed_field_fraction, steps);
+  c.redrawn_layout_fraction = per_step_fraction(total.redrawn_layout_fraction, steps);
+  c.removed_building_fraction = per_step_fraction(total.removed_building_fraction, steps);
+  c.cut_tree_fraction = per_step_fraction(total.cut_tree_fraction, steps);
+  c.cleared_stand_fraction = per_step_fraction(total.cleared_stand_fraction, steps);
+  // Counts per step (fractions of the initial number, or per km2): they add up over the steps, up to
+  // the rounding of each step's count to whole items.
+  const auto n = static_cast<double>(steps);
+  c.new_building_fraction = total.new_building_fraction / n;
+  c.new_villages_per_km2 = total.new_villages_per_km2 / n;
+  c.new_tree_fraction = total.new_tree_fraction / n;
+  c.new_stand_fraction = total.new_stand_fraction / n;
+  // Roads are whole: at least the total, so that no step-count loses them all (2 roads over 3 or 4
+  // steps give a road per step).
+  c.new_roads = (total.new_roads + steps - 1) / steps;
+  // A tree's growth compounds from epoch to epoch (Tree::height_in).
+  c.tree_growth = per_step_growth(total.tree_growth, steps);
+  // Unchanged: seasonal_shift is each epoch's own offset about the mean, not an accumulation;
+  // layout_region_m is a size; consolidation is the enlargement of one redraw of a region's layout
+  // (a region redrawn at a single step looks as after the whole change in one step; the few redrawn
+  // at two steps are consolidated twice).
+  return c;
+}
+
 /// Options of generate_scene(). Defaults give the small two-epoch test scene (2 x 3 images of
 /// 400 x 300 px per epoch, about 1.9 m ground sampling distance).
 struct SceneOptions {
@@ -81,14 +136,20 @@ struct SceneOptions {
   /// Worker threads: 0 = all cores. Results do not depend on it.
   std::size_t threads = 0;
 
-  /// Two epochs decades apart, as hard as real historical pairs (docs/synthetic-scenes.md has the
-  /// table of every value and what each effect does to matching): `e1`, a 1960s-like flight on
-  /// black-and-white film (1600 x 1200 px at 1.0 m, worn scan, poor DSM with a 3 m dome), and
-  /// `e2`, a recent flight at 0.5 m (JPEG-compressed), over a landscape that changed for decades
-  /// (most fields redrawn, new roads and housing, forests grown and cleared, trees grown and cut),
-  /// with cast shadows under two different suns and land-cover classes whose brightness the two
-  /// films render differently (trees dark on the old film, bright on the new one).
-  static SceneOptions decades_apart();
+  /// A site seen by `epochs` flights decades apart, as hard as real historical pairs
+  /// (docs/synthetic-scenes.md has the table of every value and what each effect does to matching).
+  /// With 2 epochs (the default): `e1`, a 1960s-like flight on black-and-white film (1600 x 1200 px
+  /// at 1.0 m, worn scan, poor DSM with a 3 m dome), and `e2`, a recent flight at 0.5 m
+  /// (JPEG-compressed), over a landscape that changed for decades (most fields redrawn, new roads and
+  /// housing, forests grown and cleared, trees grown and cut), with cast shadows under two different
+  /// suns and land-cover classes whose brightness the two films render differently (trees dark on
+  /// the old film, bright on the new one).
+  /// With 3 to 5 epochs, `e1` .. `eN` oldest first: `epochs - 1` film flights of the 1950s to the
+  /// 1980s, each with its own camera, block, sun, film and DSM (older: coarser, worse film, worse
+  /// DSM), then the same recent `eN`; the landscape changes step by step, by the same total from the
+  /// first epoch to the last as with two epochs (changes_per_step()).
+  /// Throws diachron::Error unless 2 <= epochs <= 5.
+  static SceneOptions decades_apart(int epochs = 2);
 
   void check() const {
     DIACHRON_CHECK(!epochs.empty(), "SceneOptions: need at least one epoch");
@@ -107,7 +168,202 @@ struct SceneOptions {
   }
 };
 
-inline SceneOptions SceneOptions::decades_apart() {
+namespace detail {
+
+// The film flights of decades_apart(), oldest first: 0 = 1950s, 1 = 1960s (the two-epoch preset's
+// e1, value for value), 2 = 1970s, 3 = 1980s. All are 1600 x 1200 px scans (one scanning campaign
+// of the archive) at 0.7 to 1.2 m; the older the flight, the coarser its GSD, the less stable its
+// aircraft, the worse its camera is known, the more worn and grainy its film and the worse the DSM
+// matched on it. Every block covers the recent block's study area, so check points exist in all.
+inline EpochOptions decades_film_flight(int decade, std::string name) {
+  EpochOptions e = EpochOptions::historical(std::move(name));
+  e.image_width_px = 1600;
+  e.image_height_px = 1200;
+  e.tie_points = 1500;
+  e.look.shading = 0.6;
+  e.look.cast_shadow = 0.85;
+  // A DSM at 2 GSD (MicMac's usual ZoomF 2 on scanned film).
+  e.dsm.cell_gsd = 2.0;
+  switch (decade) {
+    case 0:
+      // 1950s: a normal-angle lens flown high (f / width 0.94), 1.2 m GSD, lines flown westwards
+      // with 35 % side overlap (its large footprints kept over the study area); the strongest lens
+      // distortion, the worst known camera, a low spring sun.
+      e.focal_px = 1500.0;
+      e.flying_height_m = 1800.0;
+      e.rows = 2;
+      e.columns = 2;
+      e.side_overlap = 0.35;
+      e.heading_deg = 180.0;
+      e.block_offset_m = Eigen::Vector2d(-30.0, 20.0);
+      e.attitude_sigma_deg = 1.5;
+      e.yaw_sigma_deg = 3.0;
+      e.principal_point_offset_px = Eigen::Vector2d(-9.0, 7.0);
+      e.distortion = {-0.04, 0.007, 0.0, 3e-4, -2.5e-4, 0.6, -0.3};
+      e.estimated_focal_scale = 1.015;
+      e.estimated_principal_point_error_px = Eigen::Vector2d(-11.0, 6.0);
+      e.estimated_distortion_fraction = 0.4;
+      e.look.sun_azimuth_deg = 100.0;
+      e.look.sun_elevation_deg = 28.0;
+      e.look.gain = 0.8;
+      e.look.offset = 0.1;
+      e.look.contrast = 0.8;
+      e.look.gamma = 1.3;
+      e.look.vignetting = 0.25;
+      e.look.land_cover.gain = {-0.9, 0.5, 0.7, 1.2, 0.85};
+      e.look.land_cover.offset = {0.8, 0.05, 0.0, 0.05, 0.05};
+      e.look.tone_curve = 7.0;
+      e.look.exposure_unevenness = 0.3;
+      e.look.grain_sigma = 0.05;
+      e.look.grain_size_px = 1.5;
+      e.look.scan_line_sigma = 0.01;
+      e.look.scan_stripes = 5;
+      e.look.scratches = 9;
+      e.look.dust_per_megapixel = 550.0;
+      e.look.blur_sigma_px = 1.3;
+      e.dsm.noise_sigma_m = 0.5;
+      e.dsm.ripple_m = 1.3;
+      e.dsm.hole_fraction = 0.1;
+      e.dsm.hole_radius_m = 24.0;
+      e.dsm.dome_m = 4.0;
+      break;
+    case 1:
+      // 1960s: wide-angle film camera (f / width 0.66), 1.0 m GSD, a 2 x 2 block (the two-epoch
+      // preset's e1; the distortion and estimated camera are historical()'s).
+      e.focal_px = 1056.0;
+      e.flying_height_m = 1056.0;
+      e.rows = 2;
+      e.columns = 2;
+      e.principal_point_offset_px = Eigen::Vector2d(6.0, -8.0);
+      e.estimated_principal_point_error_px = Eigen::Vector2d(8.0, -4.0);
+      e.look.sun_azimuth_deg = 125.0;
+      e.look.sun_elevation_deg = 35.0;
+      // Old film renders vegetation dark and inverts the crop contrast of a near-infrared sensor.
+      e.look.land_cover.gain = {-0.8, 0.6, 0.8, 1.1, 0.9};
+      e.look.land_cover.offset = {0.75, 0.05, 0.0, 0.05, 0.05};
+      e.look.tone_curve = 6.0;
+      e.look.exposure_unevenness = 0.25;
+      e.look.grain_sigma = 0.04;
+      e.look.grain_size_px = 1.2;
+      e.look.scan_line_sigma = 0.008;
+      e.look.scan_stripes = 4;
+      e.look.scratches = 6;
+      e.look.dust_per_megapixel = 400.0;
+      e.look.blur_sigma_px = 1.0;
+      e.dsm.noise_sigma_m = 0.4;
+      e.dsm.ripple_m = 1.0;
+      e.dsm.hole_fraction = 0.08;
+      e.dsm.hole_radius_m = 20.0;
+      e.dsm.dome_m = 3.0;
+      break;
+    case 2:
+      // 1970s: f / width 0.78, 0.9 m GSD, north-south lines; the crop inversion weaker.
+      e.focal_px = 1250.0;
+      e.flying_height_m = 1125.0;
+      e.rows = 2;
+      e.columns = 2;
+      e.heading_deg = 90.0;
+      e.block_offset_m = Eigen::Vector2d(30.0, 20.0);
+      e.principal_point_offset_px = Eigen::Vector2d(4.0, 6.0);
+      e.distortion = {-0.02, 0.003, 0.0, 1.5e-4, -1e-4, 0.3, -0.15};
+      e.estimated_focal_scale = 1.008;
+      e.estimated_principal_point_error_px = Eigen::Vector2d(5.0, -7.0);
+      e.look.sun_azimuth_deg = 150.0;
+      e.look.sun_elevation_deg = 42.0;
+      e.look.gain = 0.88;
+      e.look.offset = 0.06;
+      e.look.contrast = 0.88;
+      e.look.gamma = 1.2;
+      e.look.vignetting = 0.18;
+      e.look.land_cover.gain = {-0.6, 0.7, 0.9, 1.05, 0.95};
+      e.look.land_cover.offset = {0.65, 0.05, 0.0, 0.03, 0.03};
+      e.look.tone_curve = 5.0;
+      e.look.exposure_unevenness = 0.2;
+      e.look.grain_sigma = 0.032;
+      e.look.grain_size_px = 1.0;
+      e.look.scan_line_sigma = 0.006;
+      e.look.scan_stripes = 3;
+      e.look.scratches = 4;
+      e.look.dust_per_megapixel = 300.0;
+      e.look.blur_sigma_px = 0.9;
+      e.dsm.noise_sigma_m = 0.35;
+      e.dsm.ripple_m = 0.8;
+      e.dsm.hole_fraction = 0.06;
+      e.dsm.hole_radius_m = 18.0;
+      e.dsm.dome_m = 2.2;
+      break;
+    default:
+      // 1980s: f / width 0.94, 0.7 m GSD, 3 lines of 2 images; the best film of the archive, whose
+      // crops are only slightly inverted.
+      DIACHRON_CHECK(decade == 3, "decades_film_flight: decade index must be in [0, 3], got " << decade);
+      e.focal_px = 1500.0;
+      e.flying_height_m = 1050.0;
+      e.rows = 3;
+      e.columns = 2;
+      e.heading_deg = -8.0;
+      e.block_offset_m = Eigen::Vector2d(-20.0, -40.0);
+      e.principal_point_offset_px = Eigen::Vector2d(-5.0, -3.0);
+      e.distortion = {-0.015, 0.0025, 0.0, 1e-4, -8e-5, 0.25, -0.1};
+      e.estimated_focal_scale = 1.006;
+      e.estimated_principal_point_error_px = Eigen::Vector2d(4.0, 3.0);
+      e.look.sun_azimuth_deg = 75.0;
+      e.look.sun_elevation_deg = 48.0;
+      e.look.gain = 0.9;
+      e.look.offset = 0.05;
+      e.look.contrast = 0.92;
+      e.look.gamma = 1.15;
+      e.look.vignetting = 0.15;
+      e.look.land_cover.gain = {-0.3, 0.8, 1.1, 1.0, 1.0};
+      e.look.land_cover.offset = {0.5, 0.04, 0.0, 0.0, 0.0};
+      e.look.tone_curve = 4.0;
+      e.look.exposure_unevenness = 0.15;
+      e.look.grain_sigma = 0.025;
+      e.look.grain_size_px = 0.8;
+      e.look.scan_line_sigma = 0.004;
+      e.look.scan_stripes = 2;
+      e.look.scratches = 3;
+      e.look.dust_per_megapixel = 200.0;
+      e.look.blur_sigma_px = 0.8;
+      e.dsm.noise_sigma_m = 0.3;
+      e.dsm.ripple_m = 0.6;
+      e.dsm.hole_fraction = 0.05;
+      e.dsm.hole_radius_m = 15.0;
+      e.dsm.dome_m = 1.5;
+      break;
+  }
+  return e;
+}
+
+// The recent flight of decades_apart(): a frame camera (f / width 1.05), 0.5 m GSD, a 3 x 3 block
+// over the same study area as the film flights, JPEG delivery.
+inline EpochOptions decades_recent_flight(std::string name) {
+  EpochOptions e = EpochOptions::recent(std::move(name));
+  e.image_width_px = 1600;
+  e.image_height_px = 1200;
+  e.focal_px = 1680.0;
+  e.flying_height_m = 840.0;
+  e.rows = 3;
+  e.columns = 3;
+  e.principal_point_offset_px = Eigen::Vector2d(-4.0, 4.0);
+  e.estimated_principal_point_error_px = Eigen::Vector2d(-3.0, 5.0);
+  e.block_offset_m = Eigen::Vector2d(40.0, -30.0);
+  e.tie_points = 1500;
+  e.look.sun_azimuth_deg = 230.0;
+  e.look.sun_elevation_deg = 55.0;
+  e.look.shading = 0.6;
+  e.look.cast_shadow = 0.85;
+  e.look.land_cover.gain = {1.0, 0.9, 2.6, 0.8, 1.0};
+  e.look.land_cover.offset = {0.0, 0.05, 0.2, 0.0, 0.0};
+  e.look.jpeg_quality = 75;
+  return e;
+}
+
+}  // namespace detail
+
+inline SceneOptions SceneOptions::decades_apart(int epochs) {
+  DIACHRON_CHECK(epochs >= 2 && epochs <= 5,
+                 "SceneOptions::decades_apart: epochs must be in [2, 5] (film flights of the 1950s to 1980s and a "
+                 "recent one), got " << epochs);
   SceneOptions o;
   o.check_points = 150;
 
@@ -122,79 +378,36 @@ inline SceneOptions SceneOptions::decades_apart() {
   o.terrain.vegetation.forest_fraction = 0.12;
   o.terrain.vegetation.single_trees_per_km2 = 60.0;
   o.terrain.vegetation.hedgerows_per_km2 = 8.0;
-  o.changes.changed_field_fraction = 0.85;
-  o.changes.redrawn_layout_fraction = 0.5;
-  o.changes.consolidation = 1.8;
-  o.changes.seasonal_shift = 0.12;
-  o.changes.removed_building_fraction = 0.2;
-  o.changes.new_building_fraction = 0.7;
-  o.changes.new_villages_per_km2 = 0.6;
-  o.changes.new_roads = 2;
-  o.changes.tree_growth = 0.35;
-  o.changes.cut_tree_fraction = 0.35;
-  o.changes.new_tree_fraction = 0.6;
-  o.changes.cleared_stand_fraction = 0.25;
-  o.changes.new_stand_fraction = 0.3;
+  // The change from the first epoch to the last; with more epochs it comes in equal steps.
+  ChangeOptions total;
+  total.changed_field_fraction = 0.85;
+  total.redrawn_layout_fraction = 0.5;
+  total.consolidation = 1.8;
+  total.seasonal_shift = 0.12;
+  total.removed_building_fraction = 0.2;
+  total.new_building_fraction = 0.7;
+  total.new_villages_per_km2 = 0.6;
+  total.new_roads = 2;
+  total.tree_growth = 0.35;
+  total.cut_tree_fraction = 0.35;
+  total.new_tree_fraction = 0.6;
+  total.cleared_stand_fraction = 0.25;
+  total.new_stand_fraction = 0.3;
+  const int steps = epochs - 1;
+  o.changes = changes_per_step(total, steps);
   o.texture.texel_m = 0.5;  // half the recent GSD
-  o.texture.bush_removal_probability = 0.5;
+  // A bush is removed by an independent draw at each new epoch, as a changed field is.
+  o.texture.bush_removal_probability = per_step_fraction(0.5, steps);
 
-  // e1: wide-angle film camera (f / width 0.66), 1.0 m GSD, a 2 x 2 block.
-  EpochOptions& e1 = o.epochs[0];
-  e1 = EpochOptions::historical("e1");
-  e1.image_width_px = 1600;
-  e1.image_height_px = 1200;
-  e1.focal_px = 1056.0;
-  e1.flying_height_m = 1056.0;
-  e1.rows = 2;
-  e1.columns = 2;
-  e1.principal_point_offset_px = Eigen::Vector2d(6.0, -8.0);
-  e1.estimated_principal_point_error_px = Eigen::Vector2d(8.0, -4.0);
-  e1.tie_points = 1500;
-  e1.look.sun_azimuth_deg = 125.0;
-  e1.look.sun_elevation_deg = 35.0;
-  e1.look.shading = 0.6;
-  e1.look.cast_shadow = 0.85;
-  // Old film renders vegetation dark and inverts the crop contrast of a near-infrared sensor.
-  e1.look.land_cover.gain = {-0.8, 0.6, 0.8, 1.1, 0.9};
-  e1.look.land_cover.offset = {0.75, 0.05, 0.0, 0.05, 0.05};
-  e1.look.tone_curve = 6.0;
-  e1.look.exposure_unevenness = 0.25;
-  e1.look.grain_sigma = 0.04;
-  e1.look.grain_size_px = 1.2;
-  e1.look.scan_line_sigma = 0.008;
-  e1.look.scan_stripes = 4;
-  e1.look.scratches = 6;
-  e1.look.dust_per_megapixel = 400.0;
-  e1.look.blur_sigma_px = 1.0;
-  // A DSM at 2 GSD (MicMac's usual ZoomF 2 on scanned film), so both epochs' DSMs have 2 m cells.
-  e1.dsm.cell_gsd = 2.0;
-  e1.dsm.noise_sigma_m = 0.4;
-  e1.dsm.ripple_m = 1.0;
-  e1.dsm.hole_fraction = 0.08;
-  e1.dsm.hole_radius_m = 20.0;
-  e1.dsm.dome_m = 3.0;
-
-  // e2: a recent frame camera (f / width 1.05), 0.5 m GSD, a 3 x 3 block over the same study
-  // area as e1, JPEG delivery.
-  EpochOptions& e2 = o.epochs[1];
-  e2 = EpochOptions::recent("e2");
-  e2.image_width_px = 1600;
-  e2.image_height_px = 1200;
-  e2.focal_px = 1680.0;
-  e2.flying_height_m = 840.0;
-  e2.rows = 3;
-  e2.columns = 3;
-  e2.principal_point_offset_px = Eigen::Vector2d(-4.0, 4.0);
-  e2.estimated_principal_point_error_px = Eigen::Vector2d(-3.0, 5.0);
-  e2.block_offset_m = Eigen::Vector2d(40.0, -30.0);
-  e2.tie_points = 1500;
-  e2.look.sun_azimuth_deg = 230.0;
-  e2.look.sun_elevation_deg = 55.0;
-  e2.look.shading = 0.6;
-  e2.look.cast_shadow = 0.85;
-  e2.look.land_cover.gain = {1.0, 0.9, 2.6, 0.8, 1.0};
-  e2.look.land_cover.offset = {0.0, 0.05, 0.2, 0.0, 0.0};
-  e2.look.jpeg_quality = 75;
+  // Which film flights (detail::decades_film_flight) a scene of `epochs` epochs has: the 1960s
+  // flight first up to four epochs, so that the first epoch and the total change stay those of the
+  // two-epoch preset; five epochs add the 1950s before it.
+  static constexpr std::array<std::array<int, 4>, 4> kFilms = {{{1, -1, -1, -1}, {1, 3, -1, -1}, {1, 2, 3, -1}, {0, 1, 2, 3}}};
+  o.epochs.clear();
+  for (int k = 0; k < steps; ++k)
+    o.epochs.push_back(detail::decades_film_flight(kFilms[static_cast<std::size_t>(steps - 1)][static_cast<std::size_t>(k)],
+                                                   "e" + std::to_string(k + 1)));
+  o.epochs.push_back(detail::decades_recent_flight("e" + std::to_string(epochs)));
   return o;
 }
 
