@@ -6,9 +6,9 @@
 /// only (target diachron::core). The OpenCV adapters (diachron/vision/...) and the I/O
 /// (diachron/io/..., diachron/synth/scene_io.hpp; GDAL for GeoTIFFs and images, while
 /// io/colmap_text.hpp, io/homol.hpp and io/helmert_json.hpp need only the standard library and Eigen)
-/// and the Ceres bundle adjustment (diachron/adjustment/... but its track builder, and
-/// diachron/pipeline/combined_adjustment.hpp; target diachron::adjustment) are included separately,
-/// so that this header never pulls them.
+/// and the Ceres bundle adjustment (diachron/adjustment/... but its track builder and
+/// triangulation, and diachron/pipeline/combined_adjustment.hpp and combined_epochs.hpp; target
+/// diachron::adjustment) are included separately, so that this header never pulls them.
 
 #include <diachron/core/error.hpp>
 #include <diachron/core/geo_transform.hpp>
@@ -88,6 +88,8 @@
 #include <diachron/eval/check_points.hpp>
 #include <diachron/eval/coregistration_case.hpp>
 #include <diachron/eval/dod.hpp>
+#include <diachron/eval/dod_map.hpp>
+#include <diachron/eval/dsm_reintersection.hpp>
 #include <diachron/eval/error_statistics.hpp>
 #include <diachron/eval/match_truth.hpp>
 #include <diachron/eval/scene_check_points.hpp>
