@@ -1,36 +1,54 @@
-// match_epochs: inter-epoch tie points between two epochs of aerial images (paper section 3.2):
-// rough co-registration from the DSMs, overlapping image pairs, precise matching per pair.
+// match_epochs: inter-epoch tie points between two or more epochs of aerial images (paper section
+// 3.2, Algorithm 1): rough co-registration of every epoch with the reference from the DSMs,
+// overlapping image pairs of every two epochs, precise matching per pair, and optionally one
+// combined adjustment of all epochs.
 //
-//   match_epochs EPOCH1_DIR EPOCH2_DIR --out DIR [options]
+//   match_epochs EPOCH_DIR EPOCH_DIR [EPOCH_DIR ...] --out DIR [options]
 //
 // Each epoch folder holds a COLMAP text model (cameras.txt, images.txt, points3D.txt), images/ and
 // dsm.tif in the model's frame (what make_scene writes), and optionally masks/<image name>.png (COLMAP's
 // masks) or images/<stem>_Masq.tif (MicMac's): 0 where no match may be, e.g. the scan's frame and
 // fiducial marks; or it is an orthophoto epoch: ortho.tif (north-up geotransform) and dsm.tif in the
-// same CRS, cut into tiles (io/epoch_folder.hpp). Epoch 1 is the master (moved onto epoch 2). The
-// rough co-registration comes from the DSMs (--rough auto), or is given (--rough identity|FILE).
+// same CRS, cut into tiles (io/epoch_folder.hpp). An epoch is named by its folder ("/data/1954" ->
+// 1954). The reference is the last epoch given, or --reference NAME; every other epoch is free. The
+// order of the others does not matter: they are taken in name order. Each free epoch is
+// co-registered with the reference from the DSMs (--rough auto), or through another free epoch
+// already placed when that fails, or by a given transform (--rough identity|FILE, per epoch with
+// NAME=). Every two epochs' overlapping image pairs are matched, the master image of a pair from
+// the epoch first in that order (a free epoch before the reference).
 // Writes
-//   DIR/rough_helmert.json  the rough co-registration, X2 = scale R X1 + translation (helmert.json's keys)
-//   DIR/Homol/              final inter-epoch tie points, MicMac Homol (both directions; names as in images.txt,
-//                           unless a name has a folder or both epochs use it: then DIR/homol_names.txt)
-//   DIR/report.json         counts per stage and per pair, timings
-//   DIR/pairs/<a>--<b>.png  each pair's final matches
-// and with --adjust (the combined adjustment, pipeline/combined_adjustment.hpp: epoch 2 fixed,
-// epoch 1's poses, Fraser camera and affine parts free, intra-epoch tie points from points3D.txt
-// and the inter-epoch ones above; images whose cameras hold the same values share one, or all of
-// epoch 1's with --one-camera; ground control points from --gcps FILE, io/control_points.hpp), in
-// epoch 2's frame:
+//   DIR/rough_helmert_<epoch>.json  per free epoch, its rough co-registration, X_ref = scale R X + t
+//                                   (helmert.json's keys)
+//   DIR/Homol/              final inter-epoch tie points of every pair, MicMac Homol (both directions;
+//                           names as in images.txt, unless a name has a folder or two epochs use it: then
+//                           every name is prefixed e<k>_, k the epoch's place in that order, and
+//                           DIR/homol_names.txt lists them)
+//   DIR/report.json         per epoch (its co-registration), per epoch pair (pairs, matches), timings
+//   DIR/pairs/<a>--<b>.png  each pair's final matches (Homol names)
+//   DIR/dod/<epoch>_rough.tif, .png  each free epoch's DoD (difference of DSMs, eval/dod_map.hpp) with
+//                           the reference, its DSM moved by the rough co-registration: float GeoTIFF on
+//                           the reference's grid, and a picture with legend and scale; report.json's
+//                           "dod" gives mu, sigma, |mu|, median and NMAD over all cells and stable ones
+// and with --adjust (the combined adjustment, pipeline/combined_epochs.hpp: the reference fixed,
+// every free epoch's poses, Fraser camera and affine parts free, intra-epoch tie points from
+// points3D.txt and the inter-epoch ones above; images whose cameras hold the same values share one,
+// or all of an epoch's with --one-camera; ground control points from --gcps FILE,
+// io/control_points.hpp), in the reference's frame:
 //   DIR/adjusted/cameras.json, DIR/adjusted/<epoch>/  the adjusted orientation (io/adjusted_export.hpp)
-//   DIR/adjusted/residuals/<image>.png                 reprojection residuals of epoch 1's tie points
+//   DIR/adjusted/residuals/<image>.png                 reprojection residuals of the free epochs' tie points
+//   DIR/dod/<epoch>.tif, .png, <epoch>_helmert.json     each free epoch's DoD after the adjustment, its DSM
+//                                                      placed by that similarity (eval/dsm_reintersection.hpp)
 //   the "adjustment" section of report.json (with each control point's error, and with
-//   --check-points FILE the check points' errors after the rough co-registration and after it)
-// Progress on stderr. Exit status: 0 success, 2 no co-registration, no match or no adjustment
-// (reason printed), 1 bad input (one line). The input folders are never written to. The stages are pipeline/rough_coregistration.hpp,
-// pipeline/overlapping_pairs.hpp and pipeline/precise_matching.hpp; docs/precise-matching.md says
-// how the defaults were chosen.
+//   --check-points FILE each free epoch's check-point errors after the rough co-registration and
+//   after it)
+// Progress on stderr. Exit status: 0 success, 2 no co-registration, no overlap, no match or no
+// adjustment (reason printed), 1 bad input (one line). The input folders are never written to. The
+// stages are pipeline/rough_coregistration.hpp, pipeline/overlapping_pairs.hpp and
+// pipeline/precise_matching.hpp; docs/precise-matching.md says how the defaults were chosen.
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <cstdint>
 #include <cstdio>
 #include <exception>
@@ -45,7 +63,10 @@
 #include <string>
 #include <vector>
 
+#include <sys/stat.h>
+
 #include <diachron/core/progress.hpp>
+#include <diachron/eval/dod_map.hpp>
 #include <diachron/io/control_points.hpp>
 #include <diachron/io/epoch_folder.hpp>
 #include <diachron/io/folders.hpp>
@@ -55,7 +76,9 @@
 #include <diachron/pipeline/overlapping_pairs.hpp>
 #include <diachron/pipeline/precise_matching.hpp>
 #include <diachron/pipeline/rough_coregistration.hpp>
+#include <diachron/terrain/ray_dsm_intersection.hpp>
 #include <diachron/vision/akaze.hpp>
+#include <diachron/vision/draw_dod.hpp>
 #include <diachron/vision/draw_matches.hpp>
 #include <diachron/vision/extractor_pair_matcher.hpp>
 #include <diachron/vision/sift.hpp>
@@ -66,8 +89,9 @@
 #include <diachron/adjustment/triangulation.hpp>
 #include <diachron/eval/check_points.hpp>
 #include <diachron/eval/distortion_precision.hpp>
+#include <diachron/eval/dsm_reintersection.hpp>
 #include <diachron/io/adjusted_export.hpp>
-#include <diachron/pipeline/combined_adjustment.hpp>
+#include <diachron/pipeline/combined_epochs.hpp>
 #include <diachron/pipeline/orthophoto_reference.hpp>
 #include <diachron/vision/draw_residuals.hpp>
 #include <glog/logging.h>
@@ -78,15 +102,21 @@ namespace {
 using namespace diachron;
 
 const char* kUsage =
-    "usage: match_epochs EPOCH1_DIR EPOCH2_DIR --out DIR [options]\n"
-    "  each EPOCH_DIR: cameras.txt images.txt points3D.txt images/ dsm.tif, optionally masks/<image name>.png\n"
+    "usage: match_epochs EPOCH_DIR EPOCH_DIR [EPOCH_DIR ...] --out DIR [options]\n"
+    "  two epochs or more, each named by its folder; the last given is the reference (--reference),\n"
+    "  the order of the others does not matter. Each EPOCH_DIR: cameras.txt images.txt points3D.txt\n"
+    "  images/ dsm.tif, optionally masks/<image name>.png\n"
     "  or images/<stem>_Masq.tif (0 where no match may be: the scan's frame, fiducial marks, clouds); or an\n"
     "  orthophoto epoch: ortho.tif (grey or colour, north-up geotransform) and dsm.tif in the same CRS,\n"
     "  matched in tiles of up to 1536 px named ortho_x<X>_y<Y>.tif after their top-left orthophoto pixel\n"
-    "  --rough auto|identity|FILE             epoch 1 -> epoch 2: co-registered from the DSMs (auto,\n"
-    "                                         default), the identity (both epochs in one frame already:\n"
-    "                                         GNSS, GCPs, a previous run), or a helmert.json FILE as\n"
-    "                                         rough_coregistration writes it\n"
+    "  --reference NAME                       the reference epoch, by its folder's name (default: the\n"
+    "                                         last given); every other epoch is moved onto it\n"
+    "  --rough [NAME=]auto|identity|FILE      a free epoch -> the reference: co-registered from the\n"
+    "                                         DSMs (auto, default; through another free epoch when\n"
+    "                                         that fails), the identity (in one frame already: GNSS,\n"
+    "                                         GCPs, a previous run), or a helmert.json FILE as\n"
+    "                                         rough_coregistration writes it; for every free epoch, or\n"
+    "                                         for epoch NAME (repeatable)\n"
     "  --method correlation|patch|guided      tentative matches: interest points correlated around their\n"
     "                                         DSM + Helmert prediction (default), one-to-one transfer-\n"
     "                                         guided tiles, or keypoints guided by DSM + Helmert\n"
@@ -112,44 +142,46 @@ const char* kUsage =
     "  --ground-gsd G                         the ground filter's inlier threshold, GSD of the secondary\n"
     "                                         image (default 3 for correlation, 10 for patch and\n"
     "                                         guided, the paper's; correlation's is at least 1.5 GSD\n"
-    "                                         of the epoch-1 image); larger for scans much finer than\n"
+    "                                         of the master image); larger for scans much finer than\n"
     "                                         their DSMs' errors (docs/precise-matching.md)\n"
-    "  --sharpen A[,S]                        correlation: sharpen the epoch-1 images before matching,\n"
+    "  --sharpen A[,S]                        correlation: sharpen the master images before matching,\n"
     "                                         an unsharp mask of amount A and Gaussian sigma S px\n"
     "                                         (default S 1; A 0 = off): for film scans blurred\n"
     "                                         beyond their grain (docs/correlation-matching.md)\n"
     "  --no-ground-filter                     skip the 3D Helmert RANSAC\n"
     "  --no-ncc                               skip the NCC validator\n"
     "  --no-pictures                          do not write pairs/*.png\n"
-    "  --adjust                               then the combined adjustment (epoch 2 fixed, epoch 1\n"
-    "                                         self-calibrated): DIR/adjusted/"
+    "  --adjust                               then the combined adjustment (the reference fixed, every\n"
+    "                                         free epoch self-calibrated): DIR/adjusted/"
 #if !DIACHRON_MATCH_EPOCHS_ADJUST
     " (not in this build: no Ceres)"
 #endif
     "\n"
     "  --affine image|camera                  with --adjust: B1, B2 per image (default) or one pair\n"
     "                                         per camera (MicMac's Fraser calibration)\n"
-    "  --hold LIST                            with --adjust: epoch 1's intrinsics held at their values\n"
+    "  --hold LIST                            with --adjust: the free epochs' intrinsics held at their values\n"
     "                                         in cameras.txt, of f,cx,cy,K1,K2,K3,P1,P2 (e.g. K3 on a\n"
     "                                         block too weak to tell it from K1, K2 and f)\n"
-    "  --prior LIST                           with --adjust: epoch 1's intrinsics tied to their values\n"
+    "  --prior LIST                           with --adjust: the free epochs' intrinsics tied to their values\n"
     "                                         in cameras.txt with a standard deviation, e.g. from a\n"
     "                                         calibration certificate: NAME=SIGMA,... of f,cx,cy (px),\n"
     "                                         K1,K2,K3,P1,P2 (e.g. f=2,cx=1,cy=1); between --hold and free\n"
-    "  --one-camera                           with --adjust: epoch 1's images share one camera (the\n"
+    "  --one-camera                           with --adjust: each free epoch's images share one camera (the\n"
     "                                         first image's values), e.g. one film camera whose SfM\n"
     "                                         gave each scan its own; without it images share a\n"
     "                                         camera when cameras.txt gives them the same values\n"
     "  --gcps FILE                            with --adjust: ground control points, lines 'point NAME\n"
-    "                                         X Y Z SIGMA' (epoch 2's frame) and 'obs NAME IMAGE X Y'\n"
-    "                                         (IMAGE of either images.txt, diachron pixels; io/\n"
+    "                                         X Y Z SIGMA' (the reference's frame) and 'obs NAME IMAGE X Y'\n"
+    "                                         (IMAGE of any images.txt, diachron pixels; io/\n"
     "                                         control_points.hpp); report.json gives their errors\n"
     "  --check-points FILE                    with --adjust: independent check points, the same layout\n"
-    "                                         (SIGMA ignored; observations in epoch 1's images): their\n"
-    "                                         errors after the rough co-registration and after the\n"
-    "                                         adjustment (the paper's table) on stdout and report.json\n"
+    "                                         (SIGMA ignored; observations in the free epochs' images):\n"
+    "                                         each free epoch's errors after the rough co-registration\n"
+    "                                         and after the adjustment (the paper's table) on stdout\n"
+    "                                         and report.json\n"
     "  --threads N                            worker threads, 0 = all cores (default 0)\n"
     "  --quiet                                no progress on stderr\n";
+
 
 std::string quoted(const std::string& s) {
   std::string q = "\"";
@@ -161,6 +193,14 @@ std::string quoted(const std::string& s) {
   return q + "\"";
 }
 
+std::string json_number_or_null(double v) {
+  if (!std::isfinite(v)) return "null";
+  std::ostringstream o;
+  o.precision(10);
+  o << v;
+  return o.str();
+}
+
 // A file name for a pair picture: the image names with '/' made safe.
 std::string safe(std::string name) {
   for (char& c : name)
@@ -169,51 +209,88 @@ std::string safe(std::string name) {
 }
 
 
-// The names of the images in Homol/. MicMac names tie-point files after the images, without
-// folders, and one name must mean one image. The names of images.txt are kept when they allow that;
-// when a name has a folder ("1954/0001.tif", as COLMAP allows) or both epochs use the same name
-// (both numbered from 0001), every name becomes "e1_" or "e2_" + the name with '/' turned into '_',
-// and DIR/homol_names.txt says which is which. Decided before any work, so that a clash stops the
-// run at once instead of after the matching.
-struct HomolNames {
-  std::vector<std::string> e1, e2;
-  bool renamed = false;
-};
 
-HomolNames homol_names(const EpochFolder& e1, const EpochFolder& e2) {
-  HomolNames out;
-  std::set<std::string> seen;
-  bool plain = true;
-  for (const EpochFolder* e : {&e1, &e2})
-    for (const EpochImage& image : e->images)
-      plain = plain && image.name.find('/') == std::string::npos && seen.insert(image.name).second;
-  out.renamed = !plain;
-  seen.clear();
-  for (int k = 0; k < 2; ++k) {
-    const EpochFolder& e = k == 0 ? e1 : e2;
-    std::vector<std::string>& names = k == 0 ? out.e1 : out.e2;
-    for (const EpochImage& image : e.images) {
-      std::string name = image.name;
-      if (out.renamed) {
-        for (char& c : name)
-          if (c == '/') c = '_';
-        name = (k == 0 ? "e1_" : "e2_") + name;
-      }
-      DIACHRON_CHECK(seen.insert(name).second, "two images of epoch " << k + 1 << " would share the Homol name '"
-                                                                       << name << "' (one is '" << image.name
-                                                                       << "'): rename one of them");
-      names.push_back(name);
-    }
+// An epoch's name: its folder's name ("/data/1954/" -> "1954"), of the resolved path when the
+// folder exists (so that "." and "../1954" are named too).
+std::string folder_name(const std::string& given) {
+  std::string dir = given;
+  if (char* real = ::realpath(given.c_str(), nullptr)) {
+    dir = real;
+    std::free(real);
   }
-  return out;
+  while (dir.size() > 1 && dir.back() == '/') dir.pop_back();
+  const std::size_t slash = dir.find_last_of('/');
+  return slash == std::string::npos ? dir : dir.substr(slash + 1);
 }
 
-void write_homol_names(const std::string& path, const EpochFolder& e1, const EpochFolder& e2, const HomolNames& n) {
+// Whether two paths are one existing file-system object.
+bool same_folder(const std::string& a, const std::string& b) {
+  struct stat sa {}, sb {};
+  return ::stat(a.c_str(), &sa) == 0 && ::stat(b.c_str(), &sb) == 0 && sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
+}
+
+// One input epoch and what the run found for it.
+struct Epoch {
+  std::string dir;   // as given
+  std::string name;  // its folder's name: rough_helmert_<name>.json, adjusted/<name>/
+  EpochFolder folder;
+  std::vector<EpochFrame> frames;
+  std::vector<std::string> homol;  // each image's name in Homol/
+  std::string rough_mode = "auto";  // --rough: auto, identity or a helmert.json
+  std::optional<Helmert3> given;    // the transform --rough gave
+  RoughCoregistrationReport rough;  // its co-registration (none for the reference)
+  std::string via;                  // the free epoch a chained co-registration went through
+  bool placed = false;              // reference_from_epoch known
+  Helmert3 reference_from_epoch = Helmert3::identity();
+};
+
+// Two epochs' overlapping image pairs and their matches; the master images are `master`'s.
+struct EpochPair {
+  std::size_t master = 0, secondary = 0;  // indices into the epochs
+  Helmert3 secondary_from_master = Helmert3::identity();
+  OverlappingPairsResult overlap;
+  PreciseMatchingReport precise;
+};
+
+// The names of the images in Homol/. MicMac names tie-point files after the images, without
+// folders, and one name must mean one image. The names of images.txt are kept when they allow that;
+// when a name has a folder ("1954/0001.tif", as COLMAP allows) or two epochs use the same name
+// (numbered from 0001 each), every name becomes "e<k>_" (k the epoch's place, from 1) + the name
+// with '/' turned into '_', and DIR/homol_names.txt says which is which. Decided before any work,
+// so that a clash stops the run at once instead of after the matching.
+bool set_homol_names(std::vector<Epoch>& epochs) {
+  std::set<std::string> seen;
+  bool plain = true;
+  for (const Epoch& e : epochs)
+    for (const EpochImage& image : e.folder.images)
+      plain = plain && image.name.find('/') == std::string::npos && seen.insert(image.name).second;
+  seen.clear();
+  for (std::size_t k = 0; k < epochs.size(); ++k) {
+    Epoch& e = epochs[k];
+    e.homol.clear();
+    for (const EpochImage& image : e.folder.images) {
+      std::string name = image.name;
+      if (!plain) {
+        for (char& c : name)
+          if (c == '/') c = '_';
+        name = "e" + std::to_string(k + 1) + "_" + name;
+      }
+      DIACHRON_CHECK(seen.insert(name).second, "two images of epoch " << e.name << " would share the Homol name '"
+                                                                       << name << "' (one is '" << image.name
+                                                                       << "'): rename one of them");
+      e.homol.push_back(name);
+    }
+  }
+  return !plain;
+}
+
+void write_homol_names(const std::string& path, const std::vector<Epoch>& epochs) {
   std::ofstream out(path);
   DIACHRON_CHECK(out.good(), "cannot write " << path);
-  out << "# epoch, image name in images.txt, its name in Homol/\n";
-  for (std::size_t i = 0; i < e1.images.size(); ++i) out << "1 " << e1.images[i].name << ' ' << n.e1[i] << '\n';
-  for (std::size_t i = 0; i < e2.images.size(); ++i) out << "2 " << e2.images[i].name << ' ' << n.e2[i] << '\n';
+  out << "# epoch (place in report.json's epochs, from 1), image name in images.txt, its name in Homol/\n";
+  for (std::size_t k = 0; k < epochs.size(); ++k)
+    for (std::size_t i = 0; i < epochs[k].folder.images.size(); ++i)
+      out << k + 1 << ' ' << epochs[k].folder.images[i].name << ' ' << epochs[k].homol[i] << '\n';
   DIACHRON_CHECK(out.good(), "cannot write " << path);
 }
 
@@ -255,6 +332,7 @@ class PictureImages {
   const EpochFolder& epoch_;
   std::vector<std::optional<Picture>> images_;
 };
+
 
 #if DIACHRON_MATCH_EPOCHS_ADJUST
 // "a,b" -> {"a", "b"}; "" -> none.
@@ -306,13 +384,6 @@ std::vector<IntrinsicPrior> parse_priors(const std::string& list) {
   return out;
 }
 
-// An epoch's name in adjusted/: its folder's name ("/data/1954/" -> "1954").
-std::string folder_name(std::string dir) {
-  while (dir.size() > 1 && dir.back() == '/') dir.pop_back();
-  const std::size_t slash = dir.find_last_of('/');
-  return slash == std::string::npos ? dir : dir.substr(slash + 1);
-}
-
 // The epoch as the combined adjustment takes it: the frames and the tracks of points3D.txt as
 // intra-epoch tie points (pixels in diachron's convention). Images whose cameras hold the same
 // values share one (CombinedEpoch::cameras empty), or all do with `one_camera`.
@@ -345,49 +416,64 @@ std::string json_rms(const ResidualRms& r) {
   return o.str();
 }
 
-std::string json_number_or_null(double v) {
-  if (!std::isfinite(v)) return "null";
-  std::ostringstream o;
-  o.precision(10);
-  o << v;
-  return o.str();
-}
 
-// The control points of a control-point file with their image names resolved in the two epochs:
-// each name must be an image of exactly one of them.
+
+// The control points of a control-point file with their image names resolved in the epochs:
+// each name must be an image of exactly one epoch (orthophoto tiles are no images here).
 // `what` names them in messages ("control point", "check point").
-std::vector<CombinedControlPoint> combined_control_points(const std::vector<ControlPointRecord>& records,
-                                                          const EpochFolder& e1, const EpochFolder& e2,
-                                                          const char* what) {
-  std::map<std::string, std::pair<int, int>> where;  // name -> (epoch 1 or 2, index)
-  for (int epoch : {1, 2}) {
-    const EpochFolder& e = epoch == 1 ? e1 : e2;
-    for (std::size_t i = 0; i < e.images.size(); ++i) {
-      const auto [it, inserted] = where.emplace(e.images[i].name, std::make_pair(epoch, static_cast<int>(i)));
-      if (!inserted && it->second.first != epoch) it->second.first = 0;  // in both epochs
+std::vector<EpochsControlPoint> epochs_control_points(const std::vector<ControlPointRecord>& records,
+                                                      const std::vector<Epoch>& epochs, const char* what) {
+  constexpr std::size_t kShared = std::numeric_limits<std::size_t>::max();
+  std::map<std::string, std::pair<std::size_t, int>> where;  // name -> (epoch, index)
+  for (std::size_t e = 0; e < epochs.size(); ++e) {
+    if (epochs[e].folder.is_ortho()) continue;
+    for (std::size_t i = 0; i < epochs[e].folder.images.size(); ++i) {
+      const auto [it, inserted] = where.emplace(epochs[e].folder.images[i].name, std::make_pair(e, static_cast<int>(i)));
+      if (!inserted && it->second.first != e) it->second.first = kShared;
     }
   }
-  std::vector<CombinedControlPoint> out;
+  std::vector<EpochsControlPoint> out;
   for (const ControlPointRecord& r : records) {
-    CombinedControlPoint g{r.position, r.sigma, {}, {}};
+    EpochsControlPoint g{r.position, r.sigma, std::vector<std::vector<ImagePixel>>(epochs.size())};
     for (const auto& [image, pixel] : r.observations) {
       const auto it = where.find(image);
-      DIACHRON_CHECK(it != where.end(), what << " " << r.name << ": no image '" << image << "' in either epoch");
-      DIACHRON_CHECK(it->second.first != 0,
-                     what << " " << r.name << ": image '" << image << "' is in both epochs; rename one of them");
-      (it->second.first == 1 ? g.epoch1 : g.epoch2).push_back({it->second.second, pixel});
+      DIACHRON_CHECK(it != where.end(), what << " " << r.name << ": no image '" << image << "' in any epoch");
+      DIACHRON_CHECK(it->second.first != kShared,
+                     what << " " << r.name << ": image '" << image << "' is in two epochs; rename one of them");
+      g.observations[it->second.first].push_back({it->second.second, pixel});
     }
     out.push_back(std::move(g));
   }
   return out;
 }
 
+// Per axis mu, sigma, |mu| (mean of |e|) and RMS of e = triangulated - given, reference units.
+void check_point_json(std::ostream& o, const CheckPointReport& c) {
+  o << "{\"used\": " << c.num_used << ", \"failed\": " << c.num_failed << ", \"rms_3d\": "
+    << json_number_or_null(c.rms_3d_m);
+  const char* axis[3] = {"x", "y", "z"};
+  for (std::size_t k = 0; k < 3; ++k) {
+    const ErrorStatistics& e = c.axes_m[k];
+    o << ", \"" << axis[k] << "\": {\"mean\": " << json_number_or_null(e.mean) << ", \"sigma\": "
+      << json_number_or_null(e.sigma) << ", \"mean_abs\": " << json_number_or_null(e.mean_abs)
+      << ", \"rms\": " << json_number_or_null(e.rms) << "}";
+  }
+  o << "}";
+}
+
+// A free epoch's check points after the rough co-registration alone and after the adjustment.
+struct EpochCheckPoints {
+  std::size_t epoch = 0;
+  CheckPointReport rough, adjusted;
+};
+
 // The "adjustment" section of report.json.
-// `names`: the images' names, epoch 1's then epoch 2's (CombinedAdjustmentResult::image_camera's order).
-std::string adjustment_json(const CombinedAdjustmentResult& a, const std::vector<std::string>& names,
+// `image_epoch`, `names`: per image of the adjustment (CombinedEpochsResult::image_camera's
+// order), its epoch and its name.
+std::string adjustment_json(const CombinedEpochsResult& a, const std::vector<Epoch>& epochs,
+                            const std::vector<std::size_t>& image_epoch, const std::vector<std::string>& names,
                             const AdjustedExportReport* exported, AffineScope affine_scope,
-                            const std::vector<ControlPointRecord>& control,
-                            const std::optional<std::pair<CheckPointReport, CheckPointReport>>& checked) {
+                            const std::vector<ControlPointRecord>& control, const std::vector<EpochCheckPoints>& checked) {
   const BundleReport& r = a.report;
   std::ostringstream o;
   o << "  \"adjustment\": {\"success\": " << (r.success ? "true" : "false") << ", \"message\": " << quoted(r.message)
@@ -395,18 +481,28 @@ std::string adjustment_json(const CombinedAdjustmentResult& a, const std::vector
     << ",\n    \"tracks\": {\"input\": " << r.tracks_input << ", \"used\": " << r.tracks_used
     << ", \"inter_epoch\": " << r.inter_epoch_tracks << ", \"rejected\": " << r.tracks_rejected
     << ", \"dropped_conflicting\": " << a.tracks.dropped_conflicting << "}, \"observations\": {\"used\": "
-    << r.observations_used << ", \"rejected\": " << r.observations_rejected << "},\n    \"before\": {\"all\": "
-    << json_rms(r.before.all) << ", \"intra_epoch\": " << json_rms(r.before.intra_epoch)
+    << r.observations_used << ", \"rejected\": " << r.observations_rejected << "},\n    \"epoch_links\": [";
+  // Tracks shared by every two epochs (before the adjustment): what ties each epoch to the others.
+  bool first_link = true;
+  for (std::size_t x = 0; x < epochs.size(); ++x)
+    for (std::size_t y = x + 1; y < epochs.size(); ++y) {
+      const auto n = static_cast<Eigen::Index>(epochs.size());
+      const std::size_t tracks = a.epoch_links.rows() == n ? a.epoch_links(static_cast<Eigen::Index>(x), static_cast<Eigen::Index>(y)) : 0;
+      o << (first_link ? "" : ", ") << "{\"epochs\": [" << quoted(epochs[x].name) << ", " << quoted(epochs[y].name)
+        << "], \"tracks\": " << tracks << "}";
+      first_link = false;
+    }
+  o << "],\n    \"before\": {\"all\": " << json_rms(r.before.all) << ", \"intra_epoch\": " << json_rms(r.before.intra_epoch)
     << ", \"inter_epoch\": " << json_rms(r.before.inter_epoch) << "},\n    \"after\": {\"all\": "
     << json_rms(r.after.all) << ", \"intra_epoch\": " << json_rms(r.after.intra_epoch)
     << ", \"inter_epoch\": " << json_rms(r.after.inter_epoch) << "},\n    \"sigma0\": " << json_number_or_null(r.sigma0)
     << ", \"covariance\": " << quoted(r.covariance_available ? "available" : r.covariance_message)
     << ",\n    \"cameras\": [";
-  const std::size_t n1 = a.epoch1.size();
   for (std::size_t c = 0; c < r.cameras.size(); ++c) {
-    // The camera's first image (epoch 1's images first, then epoch 2's).
+    // The camera's first image, in the adjustment's order.
     const auto at = std::find(a.image_camera.begin(), a.image_camera.end(), r.cameras[c].camera);
     const auto first = static_cast<std::size_t>(at - a.image_camera.begin());
+    const std::size_t epoch = first < image_epoch.size() ? image_epoch[first] : 0;
     o << (c ? ",\n      " : "\n      ") << "{\"camera\": " << r.cameras[c].camera << ", \"free\": "
       << (r.cameras[c].free ? "true" : "false") << ", \"values\": {";
     for (std::size_t k = 0; k < r.cameras[c].values.size(); ++k) {
@@ -419,14 +515,14 @@ std::string adjustment_json(const CombinedAdjustmentResult& a, const std::vector
     o << "], \"priors\": {";
     for (std::size_t k = 0; k < r.cameras[c].priors.size(); ++k)
       o << (k ? ", " : "") << quoted(r.cameras[c].priors[k]) << ": " << json_number_or_null(r.cameras[c].prior_sigmas[k]);
-    o << "}, \"epoch\": " << (first < n1 ? 1 : 2) << ", \"images\": [";
+    o << "}, \"epoch\": " << quoted(epochs[epoch].name) << ", \"images\": [";
     for (std::size_t i = 0, k = 0; i < a.image_camera.size(); ++i)
       if (a.image_camera[i] == r.cameras[c].camera) o << (k++ ? ", " : "") << quoted(names[i]);
     o << "], \"distortion_sigma\": ";
     // The covariance carried to the distortion over the image (eval/distortion_precision.hpp): what
     // the block determines, without the truth.
     const Frame<FraserAffine>* frame =
-        first < n1 ? &a.epoch1[first] : first < n1 + a.epoch2.size() ? &a.epoch2[first - n1] : nullptr;
+        first < image_epoch.size() ? &a.epochs[epoch][first - a.first_image[epoch]] : nullptr;
     const DistortionPrecision precision = !r.cameras[c].covariance.empty() && frame
                                               ? distortion_precision(frame->camera(), r.cameras[c].covariance)
                                               : DistortionPrecision{};
@@ -458,24 +554,15 @@ std::string adjustment_json(const CombinedAdjustmentResult& a, const std::vector
     o << "}";
   }
   o << "],\n    \"check_points\": ";
-  if (checked) {
-    // Per axis mu, sigma, |mu| (mean of |e|) and RMS of e = triangulated - given, epoch-2 units.
-    const auto stats = [&o](const CheckPointReport& c) {
-      o << "{\"used\": " << c.num_used << ", \"failed\": " << c.num_failed << ", \"rms_3d\": "
-        << json_number_or_null(c.rms_3d_m);
-      const char* axis[3] = {"x", "y", "z"};
-      for (std::size_t k = 0; k < 3; ++k) {
-        const ErrorStatistics& e = c.axes_m[k];
-        o << ", \"" << axis[k] << "\": {\"mean\": " << json_number_or_null(e.mean) << ", \"sigma\": "
-          << json_number_or_null(e.sigma) << ", \"mean_abs\": " << json_number_or_null(e.mean_abs)
-          << ", \"rms\": " << json_number_or_null(e.rms) << "}";
-      }
+  if (!checked.empty()) {
+    o << "{";
+    for (std::size_t k = 0; k < checked.size(); ++k) {
+      o << (k ? ",\n      " : "\n      ") << quoted(epochs[checked[k].epoch].name) << ": {\"rough\": ";
+      check_point_json(o, checked[k].rough);
+      o << ",\n        \"adjusted\": ";
+      check_point_json(o, checked[k].adjusted);
       o << "}";
-    };
-    o << "{\"rough\": ";
-    stats(checked->first);
-    o << ",\n      \"adjusted\": ";
-    stats(checked->second);
+    }
     o << "}";
   } else {
     o << "null";
@@ -486,28 +573,33 @@ std::string adjustment_json(const CombinedAdjustmentResult& a, const std::vector
   return o.str();
 }
 
-// One picture per epoch-1 image: its tie-point observations and their reprojection residuals
-// after the adjustment (observed - projected), magnified.
-void write_residual_pictures(const std::string& dir, const EpochFolder& e1, PictureImages& images,
-                             const CombinedAdjustmentResult& a) {
+// One picture per image of a free epoch: its tie-point observations and their reprojection
+// residuals after the adjustment (observed - projected), magnified; named after its Homol name.
+void write_residual_pictures(const std::string& dir, const std::vector<Epoch>& epochs, std::size_t reference,
+                             std::vector<PictureImages>& images, const CombinedEpochsResult& a) {
   make_folder(dir, "match_epochs");
-  const std::size_t n1 = e1.images.size();
-  std::vector<std::vector<Vec2>> pixels(n1), residuals(n1);
-  for (std::size_t t = 0; t < a.track_list.size(); ++t) {
-    if (!a.track_used[t]) continue;
-    for (const TrackObservation& o : a.track_list[t].observations) {
-      if (o.image < 0 || static_cast<std::size_t>(o.image) >= n1) continue;
-      const std::optional<Vec2> p = a.epoch1[static_cast<std::size_t>(o.image)].project(a.points[t]);
-      if (!p) continue;
-      pixels[static_cast<std::size_t>(o.image)].push_back(images[static_cast<std::size_t>(o.image)].at(o.pixel));
-      residuals[static_cast<std::size_t>(o.image)].push_back(o.pixel - *p);
+  for (std::size_t e = 0; e < epochs.size(); ++e) {
+    if (e == reference || epochs[e].folder.is_ortho()) continue;
+    const std::size_t n = epochs[e].folder.images.size(), first = a.first_image[e];
+    std::vector<std::vector<Vec2>> pixels(n), residuals(n);
+    for (std::size_t t = 0; t < a.track_list.size(); ++t) {
+      if (!a.track_used[t]) continue;
+      for (const TrackObservation& o : a.track_list[t].observations) {
+        if (o.image < 0 || static_cast<std::size_t>(o.image) < first || static_cast<std::size_t>(o.image) >= first + n)
+          continue;
+        const std::size_t i = static_cast<std::size_t>(o.image) - first;
+        const std::optional<Vec2> p = a.epochs[e][i].project(a.points[t]);
+        if (!p) continue;
+        pixels[i].push_back(images[e][i].at(o.pixel));
+        residuals[i].push_back(o.pixel - *p);
+      }
     }
-  }
-  for (std::size_t i = 0; i < n1; ++i) {
-    std::string name = safe(e1.images[i].name);
-    const std::size_t dot = name.find_last_of('.');
-    if (dot != std::string::npos && dot > 0) name.erase(dot);  // "a.tif" -> "a.png"
-    write_residuals_png(dir + "/" + name + ".png", images[i].image, pixels[i], residuals[i]);
+    for (std::size_t i = 0; i < n; ++i) {
+      std::string name = safe(epochs[e].homol[i]);
+      const std::size_t dot = name.find_last_of('.');
+      if (dot != std::string::npos && dot > 0) name.erase(dot);  // "a.tif" -> "a.png"
+      write_residuals_png(dir + "/" + name + ".png", images[e][i].image, pixels[i], residuals[i]);
+    }
   }
 }
 #endif
@@ -519,20 +611,12 @@ auto& ground_threshold_gsd(Options& options, const std::string& method) {
   return method == "correlation" ? options.correlation.ground_threshold_gsd : options.ground.threshold_gsd;
 }
 
-void write_report(const std::string& path, const EpochFolder& e1, const EpochFolder& e2,
-                  const RoughCoregistrationReport& rough, const std::string& rough_source,
-                  const OverlappingPairsResult& overlap,
-                  const PreciseMatchingReport& precise, const PreciseMatchingOptions& options,
-                  const std::string& method, const std::string& matcher, const std::string& adjustment_section = "") {
-  std::ofstream out(path);
-  DIACHRON_CHECK(out.good(), "cannot write " << path);
-  out.precision(10);
-  out << "{\n  \"method\": " << quoted(method) << ",\n  \"matcher\": " << quoted(matcher) << ",\n";
-  out << adjustment_section;
-  out << "  \"epochs\": [{\"kind\": " << quoted(e1.is_ortho() ? "orthophoto" : "photos") << ", \"images\": "
-      << e1.images.size() << "}, {\"kind\": " << quoted(e2.is_ortho() ? "orthophoto" : "photos")
-      << ", \"images\": " << e2.images.size() << "}],\n";
-  out << "  \"rough_coregistration\": {\"source\": " << quoted(rough_source)
+
+// The rough co-registration of one epoch into the reference, as report.json gives it.
+void rough_json(std::ostream& out, const Epoch& e) {
+  const RoughCoregistrationReport& rough = e.rough;
+  const std::string source = e.rough_mode == "auto" ? "dsm" : e.rough_mode == "identity" ? "identity" : "file";
+  out << "{\"source\": " << quoted(source) << ", \"via\": " << (e.via.empty() ? "null" : quoted(e.via))
       << ", \"success\": " << (rough.success ? "true" : "false")
       << ", \"message\": " << quoted(rough.message) << ", \"inliers_2d\": " << rough.inliers_2d.size()
       << ", \"inliers_3d\": " << rough.inliers_3d.size() << ", \"rms_3d\": " << rough.rms_3d
@@ -547,11 +631,31 @@ void write_report(const std::string& path, const EpochFolder& e1, const EpochFol
       << ", \"surface_noise_ratio\": "
       << (rough.agreement.valid && std::isfinite(rough.agreement.noise_ratio) ? std::to_string(rough.agreement.noise_ratio)
                                                                                 : std::string("null"))
-      << ", \"seconds\": " << rough.seconds.total << "},\n";
-  out << "  \"overlapping_pairs\": {\"candidates\": " << overlap.candidate_pairs
-      << ", \"overlapping\": " << overlap.overlapping_pairs << ", \"kept\": " << overlap.pairs.size()
-      << ", \"invalid_footprints\": [" << overlap.invalid_master_footprints << ", "
-      << overlap.invalid_secondary_footprints << "], \"message\": " << quoted(overlap.message) << "},\n";
+      << ", \"seconds\": " << rough.seconds.total << "}";
+}
+
+// report.json: per epoch (its co-registration), per epoch pair (overlapping pairs, matches).
+// `sections`: further top-level members, each "  \"key\": ...,\n" (the adjustment's).
+void write_report(const std::string& path, const std::vector<Epoch>& epochs, std::size_t reference,
+                  const std::vector<EpochPair>& pairs, const PreciseMatchingOptions& options, const std::string& method,
+                  const std::string& matcher, const std::string& sections = "") {
+  std::ofstream out(path);
+  DIACHRON_CHECK(out.good(), "cannot write " << path);
+  out.precision(10);
+  out << "{\n  \"method\": " << quoted(method) << ",\n  \"matcher\": " << quoted(matcher) << ",\n";
+  out << sections;
+  out << "  \"reference\": " << quoted(epochs[reference].name) << ",\n  \"epochs\": [";
+  for (std::size_t k = 0; k < epochs.size(); ++k) {
+    const Epoch& e = epochs[k];
+    out << (k ? ",\n    " : "\n    ") << "{\"name\": " << quoted(e.name) << ", \"folder\": " << quoted(e.dir)
+        << ", \"kind\": " << quoted(e.folder.is_ortho() ? "orthophoto" : "photos") << ", \"images\": "
+        << e.folder.images.size() << ", \"masks\": " << e.folder.masks()
+        << ", \"reference\": " << (k == reference ? "true" : "false") << ",\n     \"rough_coregistration\": ";
+    if (k == reference) out << "null";
+    else rough_json(out, e);
+    out << "}";
+  }
+  out << "],\n";
   out << "  \"ground_filter\": {\"on\": " << (options.use_ground_filter ? "true" : "false")
       << ", \"threshold_gsd\": " << ground_threshold_gsd(options, method);
   if (method == "correlation") out << ", \"floor_master_gsd\": " << options.correlation.ground_floor_master_gsd;
@@ -559,42 +663,173 @@ void write_report(const std::string& path, const EpochFolder& e1, const EpochFol
   if (method == "correlation")
     out << "  \"master_sharpen\": {\"amount\": " << options.correlation.master_sharpen.amount
         << ", \"sigma_px\": " << options.correlation.master_sharpen.sigma_px << "},\n";
-  out << "  \"masks\": {\"epoch1\": " << e1.masks() << ", \"epoch2\": " << e2.masks() << "},\n";
-  out << "  \"precise_matching\": {\"success\": " << (precise.success ? "true" : "false")
-      << ", \"message\": " << quoted(precise.message) << ", \"tentative\": " << precise.tentative
-      << ", \"after_ground_filter\": " << precise.grounded << ", \"final\": " << precise.final_matches
-      << ", \"seconds_features\": " << precise.seconds_features << ", \"seconds\": " << precise.seconds_total
-      << ",\n    \"pairs\": [";
-  for (std::size_t k = 0; k < precise.pairs.size(); ++k) {
-    const PrecisePairReport& p = precise.pairs[k];
-    const ImagePairOverlap& o = overlap.pairs[k];
-    out << (k ? ",\n      " : "\n      ") << "{\"master\": " << quoted(e1.images[p.master].name)
-        << ", \"secondary\": " << quoted(e2.images[p.secondary].name) << ", \"overlap_fraction\": " << o.fraction_of_smaller
-        << ", \"tentative\": " << p.tentative.size() << ", \"masked\": " << p.masked
-        << ", \"after_ground_filter\": " << p.grounded.size() << ", \"final\": " << p.matches.size()
-        << ", \"message\": " << quoted(p.message)
-        << ", \"seconds\": {\"images\": " << p.seconds.images << ", \"tentative\": " << p.seconds.tentative
-        << ", \"ground\": " << p.seconds.ground << ", \"ncc\": " << p.seconds.ncc << ", \"total\": " << p.seconds.total
-        << "}}";
+  std::size_t tentative = 0, grounded = 0, final_matches = 0;
+  double seconds = 0.0;
+  for (const EpochPair& p : pairs) {
+    tentative += p.precise.tentative;
+    grounded += p.precise.grounded;
+    final_matches += p.precise.final_matches;
+    seconds += p.precise.seconds_total;
   }
-  out << "]}\n}\n";
+  out << "  \"precise_matching\": {\"tentative\": " << tentative << ", \"after_ground_filter\": " << grounded
+      << ", \"final\": " << final_matches << ", \"seconds\": " << seconds << "},\n";
+  out << "  \"epoch_pairs\": [";
+  for (std::size_t q = 0; q < pairs.size(); ++q) {
+    const EpochPair& ep = pairs[q];
+    const Epoch& a = epochs[ep.master];
+    const Epoch& b = epochs[ep.secondary];
+    const OverlappingPairsResult& overlap = ep.overlap;
+    const PreciseMatchingReport& precise = ep.precise;
+    out << (q ? ",\n    " : "\n    ") << "{\"master\": " << quoted(a.name) << ", \"secondary\": " << quoted(b.name)
+        << ",\n     \"overlapping_pairs\": {\"candidates\": " << overlap.candidate_pairs
+        << ", \"overlapping\": " << overlap.overlapping_pairs << ", \"kept\": " << overlap.pairs.size()
+        << ", \"invalid_footprints\": [" << overlap.invalid_master_footprints << ", "
+        << overlap.invalid_secondary_footprints << "], \"message\": " << quoted(overlap.message) << "},\n";
+    out << "     \"precise_matching\": {\"success\": " << (precise.success ? "true" : "false")
+        << ", \"message\": " << quoted(precise.message) << ", \"tentative\": " << precise.tentative
+        << ", \"after_ground_filter\": " << precise.grounded << ", \"final\": " << precise.final_matches
+        << ", \"seconds_features\": " << precise.seconds_features << ", \"seconds\": " << precise.seconds_total
+        << ",\n      \"pairs\": [";
+    for (std::size_t k = 0; k < precise.pairs.size() && k < overlap.pairs.size(); ++k) {
+      const PrecisePairReport& p = precise.pairs[k];
+      const ImagePairOverlap& o = overlap.pairs[k];
+      out << (k ? ",\n        " : "\n        ") << "{\"master\": " << quoted(a.folder.images[p.master].name)
+          << ", \"secondary\": " << quoted(b.folder.images[p.secondary].name)
+          << ", \"overlap_fraction\": " << o.fraction_of_smaller << ", \"tentative\": " << p.tentative.size()
+          << ", \"masked\": " << p.masked << ", \"after_ground_filter\": " << p.grounded.size()
+          << ", \"final\": " << p.matches.size() << ", \"message\": " << quoted(p.message)
+          << ", \"seconds\": {\"images\": " << p.seconds.images << ", \"tentative\": " << p.seconds.tentative
+          << ", \"ground\": " << p.seconds.ground << ", \"ncc\": " << p.seconds.ncc << ", \"total\": " << p.seconds.total
+          << "}}";
+    }
+    out << "]}}";
+  }
+  out << "]\n}\n";
   out.close();
   DIACHRON_CHECK(!out.fail(), "cannot write " << path);
+}
+
+// The DoD of a free epoch against the reference (eval/dod_map.hpp): its DSM moved into the
+// reference's frame, differenced on the reference's grid, with statistics over every cell and
+// over stable terrain: the cells within kStableCells reference DSM cells of a final match with the
+// reference, ground that looked alike across the decades (the ground filter kept it).
+constexpr double kStableCells = 4.0;
+
+struct EpochDod {
+  std::size_t epoch = 0;
+  std::size_t stable_points = 0;  // matches with the reference placed on its DSM
+  DodMapStatistics rough, adjusted;
+  bool has_adjusted = false;
+  double range_m = 0.0;                                       // the pictures' colour range (both alike)
+  double nonrigid_rms = std::numeric_limits<double>::quiet_NaN();  // reintersection's bend beyond a similarity
+};
+
+// Where the final matches of epoch k with the reference lie on the reference's DSM: the
+// reference pixel's ray met with it.
+std::vector<Eigen::Vector3d> stable_points(const std::vector<Epoch>& epochs, std::size_t reference,
+                                           const std::vector<EpochPair>& pairs, std::size_t k) {
+  std::vector<Eigen::Vector3d> out;
+  for (const EpochPair& ep : pairs) {
+    if (ep.master != k || ep.secondary != reference) continue;
+    for (const PrecisePairReport& p : ep.precise.pairs)
+      for (const PointMatch& m : p.matches) {
+        const std::optional<Ray3> ray = epochs[reference].frames[p.secondary].ray(m.b);
+        if (!ray) continue;
+        const RayDsmResult hit = intersect_ray_dsm(epochs[reference].folder.dsm, *ray);
+        if (hit.success) out.push_back(hit.point);
+      }
+  }
+  return out;
+}
+
+// One DoD map out: DIR/dod/<stem>.tif (float, nodata where either DSM has none) and <stem>.png.
+DodMapStatistics write_dod(const std::string& dir, const std::string& stem, const Dsm& reference, const Dsm& moving,
+                           const Helmert3& reference_from_moving, const Raster<std::uint8_t>& stable,
+                           const std::string& title, double& range_m, std::size_t threads) {
+  DodMapOptions options;
+  options.threads = threads;
+  const DodMap map = dod_map(reference, moving, reference_from_moving, options);
+  if (!map.success) {
+    DodMapStatistics none;
+    none.reason = map.reason;
+    return none;
+  }
+  write_geotiff_dsm(map.dz, dir + "/" + stem + ".tif");
+  DrawDodOptions picture;
+  picture.title = title;
+  picture.stable = &stable;
+  if (range_m <= 0.0) range_m = dod_colour_range(map.dz, picture);
+  picture.range_m = range_m;
+  write_dod_png(dir + "/" + stem + ".png", map.dz, picture);
+  return dod_map_statistics(map.dz, &stable);
+}
+
+void dod_statistics_json(std::ostream& o, const ErrorStatistics& e) {
+  o << "{\"cells\": " << e.count << ", \"mean\": " << json_number_or_null(e.mean) << ", \"sigma\": "
+    << json_number_or_null(e.sigma) << ", \"mean_abs\": " << json_number_or_null(e.mean_abs)
+    << ", \"median\": " << json_number_or_null(e.median) << ", \"nmad\": " << json_number_or_null(e.nmad) << "}";
+}
+
+// The "dod" section of report.json: per free epoch, the paper's mu, sigma, |mu| plus median and
+// NMAD over every valid cell and over stable terrain, rough and adjusted (reference units).
+std::string dod_json(const std::vector<EpochDod>& dods, const std::vector<Epoch>& epochs) {
+  std::ostringstream o;
+  o.precision(6);
+  o << "  \"dod\": {\"stable_radius_cells\": " << kStableCells;
+  for (const EpochDod& d : dods) {
+    o << ",\n    " << quoted(epochs[d.epoch].name) << ": {\"stable_points\": " << d.stable_points
+      << ", \"colour_range\": " << json_number_or_null(d.range_m) << ", \"reintersection_nonrigid_rms\": "
+      << json_number_or_null(d.nonrigid_rms);
+    for (const auto& [name, s] : {std::make_pair("rough", &d.rough), std::make_pair("adjusted", &d.adjusted)}) {
+      if (name == std::string("adjusted") && !d.has_adjusted) continue;
+      o << ",\n      \"" << name << "\": ";
+      if (!s->success) {
+        o << "{\"message\": " << quoted(s->reason) << "}";
+        continue;
+      }
+      o << "{\"all\": ";
+      dod_statistics_json(o, s->all);
+      o << ", \"stable\": ";
+      dod_statistics_json(o, s->stable);
+      o << "}";
+    }
+    o << "}";
+  }
+  o << "},\n";
+  return o.str();
+}
+
+// The free epochs not tied to the reference through pairs with final matches (a chain of them
+// counts), in order; empty when all are.
+std::vector<std::size_t> untied_epochs(const std::vector<Epoch>& epochs, std::size_t reference,
+                                       const std::vector<EpochPair>& pairs) {
+  std::vector<bool> tied(epochs.size(), false);
+  tied[reference] = true;
+  for (bool grew = true; grew;) {
+    grew = false;
+    for (const EpochPair& p : pairs)
+      if (p.precise.success && tied[p.master] != tied[p.secondary]) tied[p.master] = tied[p.secondary] = grew = true;
+  }
+  std::vector<std::size_t> out;
+  for (std::size_t e = 0; e < epochs.size(); ++e)
+    if (!tied[e]) out.push_back(e);
+  return out;
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
   // affine: "" (not given: per image), "image" or "camera".
-  std::string dir1, dir2, out_dir, method = "correlation", matcher_name = "rootsift", model_path, measure, affine;
+  std::string out_dir, method = "correlation", matcher_name = "rootsift", model_path, measure, affine, reference_name;
+  std::vector<std::string> dirs;
+  std::vector<std::string> rough_specs;  // --rough: [NAME=]auto|identity|FILE, in order
   PreciseMatchingOptions options;
   OverlappingPairsOptions overlap_options;
   bool quiet = false, pictures = true, adjust = false, fallback = true, one_camera = false;
-  std::string hold;  // --hold: epoch 1's intrinsics held, comma-separated names
-  std::string prior;  // --prior: epoch 1's intrinsic priors, NAME=SIGMA,...
+  std::string hold;  // --hold: the free epochs' intrinsics held, comma-separated names
+  std::string prior;  // --prior: the free epochs' intrinsic priors, NAME=SIGMA,...
   std::string gcps;  // --gcps: the control-point file
   std::string checks;  // --check-points: the check-point file
-  std::string rough_mode = "auto";  // --rough: auto, identity or a helmert.json
   double min_overlap = 0.1;
   std::optional<int> cell;  // unset: the default cell
   std::optional<long long> max_points;  // unset: PreciseCorrelationOptions' bound
@@ -622,7 +857,8 @@ int main(int argc, char** argv) {
       else if (a == "--max-points") max_points = std::stoll(value());
       else if (a == "--model") model_path = value();
       else if (a == "--min-overlap") min_overlap = std::stod(value());
-      else if (a == "--rough") rough_mode = value();
+      else if (a == "--rough") rough_specs.push_back(value());
+      else if (a == "--reference") reference_name = value();
       else if (a == "--nodata") {
         dsm_read.assume_untagged_nodata = true;
         dsm_read.untagged_nodata = std::stod(value());
@@ -652,19 +888,66 @@ int main(int argc, char** argv) {
         std::cout << kUsage;
         return 0;
       } else if (!a.empty() && a[0] == '-') DIACHRON_CHECK(false, "unknown option " << a);
-      else if (dir1.empty()) dir1 = a;
-      else if (dir2.empty()) dir2 = a;
-      else DIACHRON_CHECK(false, "unexpected argument " << a);
+      else dirs.push_back(a);
     }
-    DIACHRON_CHECK(!dir1.empty() && !dir2.empty() && !out_dir.empty(), "two epoch folders and --out DIR are required");
-    // A given transform is read before any work: a missing or malformed file fails fast.
-    std::optional<Helmert3> given_rough;
-    if (rough_mode == "identity") given_rough = Helmert3::identity();
-    else if (rough_mode != "auto") {
-      DIACHRON_CHECK(!rough_mode.empty(), "--rough wants auto, identity or a helmert.json file");
-      DIACHRON_CHECK(is_regular_file(rough_mode), "--rough: '" << rough_mode
-                                                                << "' is neither auto, identity nor a file");
-      given_rough = read_helmert_json(rough_mode);
+    DIACHRON_CHECK(dirs.size() >= 2 && !out_dir.empty(),
+                   "two epoch folders or more and --out DIR are required (" << dirs.size() << " folder"
+                                                                            << (dirs.size() == 1 ? "" : "s")
+                                                                            << " given)");
+    // The epochs, named by their folders: a folder given twice, or two folders of one name, would
+    // make two epochs that outputs cannot tell apart.
+    std::vector<Epoch> epochs(dirs.size());
+    for (std::size_t k = 0; k < dirs.size(); ++k) {
+      epochs[k].dir = dirs[k];
+      epochs[k].name = folder_name(dirs[k]);
+      DIACHRON_CHECK(!epochs[k].name.empty() && epochs[k].name != "/" && epochs[k].name != "residuals",
+                     "epoch folder '" << dirs[k] << "' has no name usable for outputs ('" << epochs[k].name
+                                      << "'): give it a folder of its own, e.g. a link named after its year");
+      for (std::size_t j = 0; j < k; ++j) {
+        DIACHRON_CHECK(dirs[j] != dirs[k] && !same_folder(dirs[j], dirs[k]),
+                       "the folder '" << dirs[k] << "' is given twice (as '" << dirs[j] << "')");
+        DIACHRON_CHECK(epochs[j].name != epochs[k].name,
+                       "two epochs are named '" << epochs[k].name << "' ('" << dirs[j] << "' and '" << dirs[k]
+                                                << "'): epochs are named by their folders; link one under another "
+                                                   "name");
+      }
+    }
+    // The reference (the last given, or named), then the free epochs in name order after it
+    // is chosen: outputs do not depend on the order they were given in.
+    if (reference_name.empty()) reference_name = epochs.back().name;
+    {
+      const auto it = std::find_if(epochs.begin(), epochs.end(), [&](const Epoch& e) { return e.name == reference_name; });
+      std::string known;
+      for (const Epoch& e : epochs) known += (known.empty() ? "" : ", ") + e.name;
+      DIACHRON_CHECK(it != epochs.end(), "--reference: no epoch is named '" << reference_name << "' (" << known << ")");
+      std::rotate(it, it + 1, epochs.end());
+      std::sort(epochs.begin(), epochs.end() - 1, [](const Epoch& a, const Epoch& b) { return a.name < b.name; });
+    }
+    const std::size_t reference = epochs.size() - 1;
+    // --rough: one mode for every free epoch, or NAME=MODE for one; read before any work, so that a
+    // missing or malformed file fails fast.
+    for (const std::string& spec : rough_specs) {
+      const std::size_t eq = spec.find('=');
+      std::string name, mode = spec;
+      if (eq != std::string::npos &&
+          std::any_of(epochs.begin(), epochs.end(), [&](const Epoch& e) { return e.name == spec.substr(0, eq); })) {
+        name = spec.substr(0, eq);
+        mode = spec.substr(eq + 1);
+        DIACHRON_CHECK(name != epochs[reference].name,
+                       "--rough " << spec << ": '" << name << "' is the reference; it is not moved");
+      }
+      std::optional<Helmert3> given;
+      if (mode == "identity") given = Helmert3::identity();
+      else if (mode != "auto") {
+        DIACHRON_CHECK(!mode.empty(), "--rough wants [NAME=]auto, identity or a helmert.json file");
+        DIACHRON_CHECK(is_regular_file(mode), "--rough: '" << mode << "' is neither auto, identity nor a file");
+        given = read_helmert_json(mode);
+      }
+      for (std::size_t k = 0; k < reference; ++k)
+        if (name.empty() || epochs[k].name == name) {
+          epochs[k].rough_mode = mode;
+          epochs[k].given = given;
+        }
     }
 #if !DIACHRON_MATCH_EPOCHS_ADJUST
     DIACHRON_CHECK(!adjust, "--adjust needs a build with Ceres (diachron::adjustment)");
@@ -745,174 +1028,302 @@ int main(int argc, char** argv) {
       };
     options.progress = progress;
 
-    const EpochFolder e1 = read_epoch_folder(dir1, dsm_read);
-    const EpochFolder e2 = read_epoch_folder(dir2, dsm_read);
-    DIACHRON_CHECK(!adjust || !e1.is_ortho(),
-                   "epoch 1 ('" << dir1 << "') is an orthophoto epoch: with --adjust an orthophoto can only be the "
-                                   "reference, epoch 2; give the photo epoch first");
-    for (const EpochFolder* e : {&e1, &e2})
-      if (const std::optional<double> v = suspected_untagged_nodata(e->dsm); v && !dsm_read.assume_untagged_nodata)
-        std::fprintf(stderr, "warning: '%s/dsm.tif' has heights of %g far below all others and no nodata tag for "
-                             "them: if they are holes, pass --nodata %g\n", e->directory.c_str(), *v, *v);
-#if DIACHRON_MATCH_EPOCHS_ADJUST
-    const std::vector<CombinedControlPoint> control_points = combined_control_points(control, e1, e2, "control point");
-    // Check points: the same resolution of names; only their epoch-1 observations count.
-    std::vector<ObservedCheckPoint> check_points;
-    for (const CombinedControlPoint& c : combined_control_points(check_records, e1, e2, "check point")) {
-      ObservedCheckPoint p{c.position, {}};
-      for (const ImagePixel& o : c.epoch1) p.observations.push_back({static_cast<std::size_t>(o.image), o.pixel});
-      check_points.push_back(std::move(p));
+    // Min overlap checked here, before any work, in the option's words.
+    DIACHRON_CHECK(std::isfinite(min_overlap) && min_overlap >= 0.0 && min_overlap <= 1.0,
+                   "--min-overlap wants a share of the smaller footprint in [0, 1], got " << min_overlap);
+    overlap_options.min_overlap_fraction = min_overlap;
+    overlap_options.threads = threads;
+    overlap_options.check();
+
+    for (Epoch& e : epochs) {
+      e.folder = read_epoch_folder(e.dir, dsm_read);
+      for (const EpochImage& im : e.folder.images) e.frames.push_back(im.epoch_frame());
     }
+    for (std::size_t k = 0; k < reference; ++k)
+      DIACHRON_CHECK(!adjust || !epochs[k].folder.is_ortho(),
+                     "epoch " << epochs[k].name << " ('" << epochs[k].dir
+                              << "') is an orthophoto epoch: with --adjust an orthophoto can only be the reference "
+                                 "(--reference "
+                              << epochs[k].name << ")");
+    for (const Epoch& e : epochs)
+      if (const std::optional<double> v = suspected_untagged_nodata(e.folder.dsm); v && !dsm_read.assume_untagged_nodata)
+        std::fprintf(stderr, "warning: '%s/dsm.tif' has heights of %g far below all others and no nodata tag for "
+                             "them: if they are holes, pass --nodata %g\n", e.dir.c_str(), *v, *v);
+#if DIACHRON_MATCH_EPOCHS_ADJUST
+    const std::vector<EpochsControlPoint> control_points = epochs_control_points(control, epochs, "control point");
+    const std::vector<EpochsControlPoint> check_points = epochs_control_points(check_records, epochs, "check point");
 #endif
-    const HomolNames names = homol_names(e1, e2);
+    const bool renamed = set_homol_names(epochs);
     make_folder(out_dir, "match_epochs");
-    if (names.renamed && !quiet)
-      std::fprintf(stderr, "image names with a folder or shared by both epochs: Homol/ uses e1_/e2_ names "
+    if (renamed && !quiet)
+      std::fprintf(stderr, "image names with a folder or shared by two epochs: Homol/ uses e<k>_ names "
                            "(DIR/homol_names.txt)\n");
     if (!quiet)
-      for (const EpochFolder* e : {&e1, &e2})
-        std::fprintf(stderr, "epoch %d: %zu %s (%zu masked), DSM %d x %d\n", e == &e1 ? 1 : 2, e->images.size(),
-                     e->is_ortho() ? "orthophoto tiles" : "images", e->masks(), e->dsm.width(), e->dsm.height());
+      for (const Epoch& e : epochs)
+        std::fprintf(stderr, "epoch %s%s: %zu %s (%zu masked), DSM %d x %d\n", e.name.c_str(),
+                     &e == &epochs[reference] ? " (reference)" : "", e.folder.images.size(),
+                     e.folder.is_ortho() ? "orthophoto tiles" : "images", e.folder.masks(), e.folder.dsm.width(),
+                     e.folder.dsm.height());
 
-    // 1. Rough co-registration: from the DSMs (its defaults: SIFT on slope images), or given.
-    RoughCoregistrationReport rough;
-    if (given_rough) {
-      rough.success = true;
-      rough.epoch2_from_epoch1 = *given_rough;
-      rough.message = rough_mode == "identity" ? "given: the identity (--rough identity)"
-                                               : "given: " + rough_mode + " (--rough FILE)";
-    } else {
+    // 1. Rough co-registration of every free epoch with the reference: from the DSMs (its defaults:
+    // SIFT on slope images), or given. An epoch that fails goes through another free epoch already
+    // placed, the best-trusted first; the chain may grow as epochs are placed.
+    std::vector<EpochPair> pairs;
+    const auto coregister = [&](const Epoch& from, const Epoch& to) {
       RoughCoregistrationOptions rough_options;
       rough_options.threads = threads;
       rough_options.progress = progress;
       rough_options.correlation_fallback = fallback;
-      rough = rough_coregistration(e1.dsm, e2.dsm, ExtractorPairMatcher<SiftExtractor>(SiftExtractor{}), rough_options);
+      return rough_coregistration(from.folder.dsm, to.folder.dsm, ExtractorPairMatcher<SiftExtractor>(SiftExtractor{}),
+                                  rough_options);
+    };
+    for (std::size_t k = 0; k < reference; ++k) {
+      Epoch& e = epochs[k];
+      if (e.given) {
+        e.rough.success = true;
+        e.rough.epoch2_from_epoch1 = *e.given;
+        e.rough.message = e.rough_mode == "identity" ? "given: the identity (--rough identity)"
+                                                     : "given: " + e.rough_mode + " (--rough FILE)";
+      } else {
+        e.rough = coregister(e, epochs[reference]);
+      }
+      e.placed = e.rough.success;
+      e.reference_from_epoch = e.rough.epoch2_from_epoch1;
+      std::printf("rough co-registration %s -> %s: %s\n", e.name.c_str(), epochs[reference].name.c_str(),
+                  e.rough.message.c_str());
     }
-    const std::string rough_source = rough_mode == "auto" ? "dsm" : rough_mode == "identity" ? "identity" : "file";
-    std::printf("rough co-registration: %s\n", rough.message.c_str());
-    OverlappingPairsResult overlap;
-    overlap_options.min_overlap_fraction = min_overlap;
-    PreciseMatchingReport precise;
-    if (!rough.success) {
-      write_report(out_dir + "/report.json", e1, e2, rough, rough_source, overlap, precise, options, method, matcher_name);
-      std::printf("no co-registration: %s\n", rough.message.c_str());
+    for (bool grew = true; grew;) {
+      grew = false;
+      std::vector<std::size_t> placed;  // free epochs placed, high trust first, then by name
+      for (std::size_t k = 0; k < reference; ++k)
+        if (epochs[k].placed) placed.push_back(k);
+      std::stable_sort(placed.begin(), placed.end(), [&](std::size_t a, std::size_t b) {
+        return static_cast<int>(epochs[a].rough.trust) > static_cast<int>(epochs[b].rough.trust);
+      });
+      for (std::size_t k = 0; k < reference; ++k) {
+        Epoch& e = epochs[k];
+        if (e.placed || e.given) continue;
+        for (std::size_t f : placed) {
+          RoughCoregistrationReport r = coregister(e, epochs[f]);
+          std::printf("rough co-registration %s -> %s: %s\n", e.name.c_str(), epochs[f].name.c_str(), r.message.c_str());
+          if (!r.success) continue;
+          e.reference_from_epoch = epochs[f].reference_from_epoch * r.epoch2_from_epoch1;
+          // A chain is no more trusted than its weakest link.
+          r.trust = static_cast<int>(epochs[f].rough.trust) < static_cast<int>(r.trust) ? epochs[f].rough.trust : r.trust;
+          r.message = "through " + epochs[f].name + ": " + r.message;
+          e.rough = std::move(r);
+          e.via = epochs[f].name;
+          e.placed = grew = true;
+          break;
+        }
+      }
+    }
+    for (std::size_t k = 0; k < reference; ++k) {
+      if (epochs[k].placed) continue;
+      write_report(out_dir + "/report.json", epochs, reference, pairs, options, method, matcher_name);
+      std::printf("no co-registration of %s with %s: %s\n", epochs[k].name.c_str(), epochs[reference].name.c_str(),
+                  epochs[k].rough.message.c_str());
       return 2;
     }
-    write_helmert_json(rough.epoch2_from_epoch1, out_dir + "/rough_helmert.json");
+    for (std::size_t k = 0; k < reference; ++k)
+      write_helmert_json(epochs[k].reference_from_epoch, out_dir + "/rough_helmert_" + epochs[k].name + ".json");
 
-    // 2. Overlapping pairs through the DSMs, epoch 1's footprints moved by the Helmert. Photos and
-    // orthophoto tiles alike, through EpochFrame.
-    std::vector<EpochFrame> frames1, frames2;
-    std::vector<FootprintImage<EpochFrame>> footprints1, footprints2;
-    for (const EpochImage& im : e1.images) frames1.push_back(im.epoch_frame());
-    for (const EpochImage& im : e2.images) frames2.push_back(im.epoch_frame());
-    for (const EpochFrame& f : frames1) footprints1.push_back({f, f.width(), f.height()});
-    for (const EpochFrame& f : frames2) footprints2.push_back({f, f.width(), f.height()});
-    overlap_options.threads = threads;
-    overlap = overlapping_pairs(footprints1, e1.dsm, footprints2, e2.dsm, rough.epoch2_from_epoch1, overlap_options);
-    std::printf("overlapping pairs: %zu of %zu candidates (%s)\n", overlap.pairs.size(), overlap.candidate_pairs,
-                overlap.message.c_str());
-    if (overlap.pairs.empty()) {
-      write_report(out_dir + "/report.json", e1, e2, rough, rough_source, overlap, precise, options, method, matcher_name);
-      std::printf("no overlapping pair: %s\n", overlap.message.c_str());
+    // 2. Overlapping pairs of every two epochs through the DSMs, the master's footprints moved by
+    // the transform between them. Photos and orthophoto tiles alike, through EpochFrame.
+    for (std::size_t a = 0; a < epochs.size(); ++a)
+      for (std::size_t b = a + 1; b < epochs.size(); ++b) {
+        EpochPair p;
+        p.master = a;
+        p.secondary = b;
+        // Into the reference: its rough transform as it is (bit for bit what two epochs always used).
+        p.secondary_from_master = b == reference ? epochs[a].reference_from_epoch
+                                                 : epochs[b].reference_from_epoch.inverse() * epochs[a].reference_from_epoch;
+        std::vector<FootprintImage<EpochFrame>> fa, fb;
+        for (const EpochFrame& f : epochs[a].frames) fa.push_back({f, f.width(), f.height()});
+        for (const EpochFrame& f : epochs[b].frames) fb.push_back({f, f.width(), f.height()});
+        p.overlap = overlapping_pairs(fa, epochs[a].folder.dsm, fb, epochs[b].folder.dsm, p.secondary_from_master,
+                                      overlap_options);
+        std::printf("overlapping pairs %s -- %s: %zu of %zu candidates (%s)\n", epochs[a].name.c_str(),
+                    epochs[b].name.c_str(), p.overlap.pairs.size(), p.overlap.candidate_pairs, p.overlap.message.c_str());
+        pairs.push_back(std::move(p));
+      }
+    for (std::size_t k = 0; k < epochs.size(); ++k) {
+      if (std::any_of(pairs.begin(), pairs.end(), [&](const EpochPair& p) {
+            return (p.master == k || p.secondary == k) && !p.overlap.pairs.empty();
+          }))
+        continue;
+      write_report(out_dir + "/report.json", epochs, reference, pairs, options, method, matcher_name);
+      std::printf("no overlapping pair: epoch %s overlaps no other epoch (least overlap %g of the smaller footprint; "
+                  "check its DSM and rough co-registration)\n",
+                  epochs[k].name.c_str(), min_overlap);
       return 2;
     }
 
-    // 3. Precise matching per pair.
-    PreciseEpoch<EpochFrame> p1{frames1, [&e1](std::size_t i) { return e1.load_image(i); }, &e1.dsm,
-                                [&e1](std::size_t i) { return e1.load_mask(i); }};
-    PreciseEpoch<EpochFrame> p2{frames2, [&e2](std::size_t i) { return e2.load_image(i); }, &e2.dsm,
-                                [&e2](std::size_t i) { return e2.load_mask(i); }};
+    // 3. Precise matching per image pair of every two epochs.
+    std::vector<PreciseEpoch<EpochFrame>> precise_epochs;
+    for (const Epoch& e : epochs)
+      precise_epochs.push_back({e.frames, [&e](std::size_t i) { return e.folder.load_image(i); }, &e.folder.dsm,
+                                [&e](std::size_t i) { return e.folder.load_mask(i); }});
     SiftOptions sift_options;
     sift_options.root_sift = matcher_name == "rootsift";
-    if (method == "correlation") {
-      precise = precise_matching_correlation(p1, p2, rough.epoch2_from_epoch1, overlap.pairs, options);
-    } else if (method == "patch") {
-      if (matcher_name == "akaze")
-        precise = precise_matching_patch(p1, p2, rough.epoch2_from_epoch1, overlap.pairs,
-                                         ExtractorPairMatcher<AkazeExtractor>(AkazeExtractor{}), options);
-      else if (matcher_name == "xfeat")
-        precise = precise_matching_patch(p1, p2, rough.epoch2_from_epoch1, overlap.pairs, XFeatPairMatcher(model_path),
-                                         options);
-      else
-        precise = precise_matching_patch(p1, p2, rough.epoch2_from_epoch1, overlap.pairs,
-                                         ExtractorPairMatcher<SiftExtractor>(SiftExtractor(sift_options)), options);
-    } else {
-      if (matcher_name == "xfeat") {
-        options.guided.metric = DescriptorDistance::Cosine;
-        precise = precise_matching_guided(p1, p2, rough.epoch2_from_epoch1, overlap.pairs, XFeatExtractor(model_path),
-                                          options);
+    for (EpochPair& ep : pairs) {
+      if (ep.overlap.pairs.empty()) continue;
+      const PreciseEpoch<EpochFrame>& p1 = precise_epochs[ep.master];
+      const PreciseEpoch<EpochFrame>& p2 = precise_epochs[ep.secondary];
+      const Helmert3& h = ep.secondary_from_master;
+      const std::vector<ImagePairOverlap>& overlapping = ep.overlap.pairs;
+      if (!quiet)
+        std::fprintf(stderr, "matching %s -- %s\n", epochs[ep.master].name.c_str(), epochs[ep.secondary].name.c_str());
+      if (method == "correlation") {
+        ep.precise = precise_matching_correlation(p1, p2, h, overlapping, options);
+      } else if (method == "patch") {
+        if (matcher_name == "akaze")
+          ep.precise = precise_matching_patch(p1, p2, h, overlapping, ExtractorPairMatcher<AkazeExtractor>(AkazeExtractor{}),
+                                              options);
+        else if (matcher_name == "xfeat")
+          ep.precise = precise_matching_patch(p1, p2, h, overlapping, XFeatPairMatcher(model_path), options);
+        else
+          ep.precise = precise_matching_patch(p1, p2, h, overlapping,
+                                              ExtractorPairMatcher<SiftExtractor>(SiftExtractor(sift_options)), options);
       } else {
-        precise = precise_matching_guided(p1, p2, rough.epoch2_from_epoch1, overlap.pairs, SiftExtractor(sift_options),
-                                          options);
+        if (matcher_name == "xfeat") {
+          PreciseMatchingOptions cosine = options;
+          cosine.guided.metric = DescriptorDistance::Cosine;
+          ep.precise = precise_matching_guided(p1, p2, h, overlapping, XFeatExtractor(model_path), cosine);
+        } else {
+          ep.precise = precise_matching_guided(p1, p2, h, overlapping, SiftExtractor(sift_options), options);
+        }
       }
     }
 
     // 4. Outputs.
-    write_report(out_dir + "/report.json", e1, e2, rough, rough_source, overlap, precise, options, method, matcher_name);
+    write_report(out_dir + "/report.json", epochs, reference, pairs, options, method, matcher_name);
     const std::string homol = out_dir + "/Homol";
     make_folder(homol, "match_epochs");
-    if (names.renamed) write_homol_names(out_dir + "/homol_names.txt", e1, e2, names);
+    if (renamed) write_homol_names(out_dir + "/homol_names.txt", epochs);
     if (pictures) make_folder(out_dir + "/pairs", "match_epochs");
-    PictureImages pictures1(e1), pictures2(e2);
-    for (const PrecisePairReport& p : precise.pairs) {
-      const std::string& a = e1.images[p.master].name;
-      const std::string& b = e2.images[p.secondary].name;
-      std::printf("%s -- %s: %zu tentative, %zu after the ground filter, %zu final\n", a.c_str(), b.c_str(),
-                  p.tentative.size(), p.grounded.size(), p.matches.size());
-      if (p.matches.empty()) continue;
-      write_homol(homol, names.e1[p.master], names.e2[p.secondary], p.matches);
-      if (pictures) {
-        const Picture& pa = pictures1[p.master];
-        const Picture& pb = pictures2[p.secondary];
-        PointMatches drawn = p.matches;
-        for (PointMatch& m : drawn) {
-          m.a = pa.at(m.a);
-          m.b = pb.at(m.b);
+    std::vector<PictureImages> picture_images;
+    picture_images.reserve(epochs.size());
+    for (const Epoch& e : epochs) picture_images.emplace_back(e.folder);
+    for (const EpochPair& ep : pairs) {
+      const Epoch& ea = epochs[ep.master];
+      const Epoch& eb = epochs[ep.secondary];
+      for (const PrecisePairReport& p : ep.precise.pairs) {
+        const std::string& a = ea.homol[p.master];
+        const std::string& b = eb.homol[p.secondary];
+        std::printf("%s -- %s: %zu tentative, %zu after the ground filter, %zu final\n",
+                    ea.folder.images[p.master].name.c_str(), eb.folder.images[p.secondary].name.c_str(),
+                    p.tentative.size(), p.grounded.size(), p.matches.size());
+        if (p.matches.empty()) continue;
+        write_homol(homol, a, b, p.matches);
+        if (pictures) {
+          const Picture& pa = picture_images[ep.master][p.master];
+          const Picture& pb = picture_images[ep.secondary][p.secondary];
+          PointMatches drawn = p.matches;
+          for (PointMatch& m : drawn) {
+            m.a = pa.at(m.a);
+            m.b = pb.at(m.b);
+          }
+          write_matches_png(out_dir + "/pairs/" + safe(a) + "--" + safe(b) + ".png", pa.image, pb.image, drawn);
         }
-        write_matches_png(out_dir + "/pairs/" + safe(a) + "--" + safe(b) + ".png", pa.image, pb.image, drawn);
       }
+      std::printf("%s -- %s: %s (%.1f s)\n", ea.name.c_str(), eb.name.c_str(), ep.precise.message.c_str(),
+                  ep.precise.seconds_total);
     }
-    std::printf("%s (%.1f s)\n", precise.message.c_str(), precise.seconds_total);
-    if (!precise.success) {
-      std::printf("no inter-epoch match: %s\n", precise.message.c_str());
+    // Every free epoch must be tied to the reference by matches, directly or through other epochs.
+    const std::vector<std::size_t> untied = untied_epochs(epochs, reference, pairs);
+    if (!untied.empty()) {
+      std::string names, why;
+      for (std::size_t k : untied) names += (names.empty() ? "" : ", ") + epochs[k].name;
+      for (const EpochPair& p : pairs)
+        if (p.master == untied.front() || p.secondary == untied.front())
+          why += (why.empty() ? "" : "; ") + epochs[p.master].name + " -- " + epochs[p.secondary].name + ": " +
+                 (p.overlap.pairs.empty() ? std::string("no overlapping pair") : p.precise.message);
+      std::printf("no inter-epoch match tying %s to the reference %s: %s\n", names.c_str(),
+                  epochs[reference].name.c_str(), why.c_str());
       return 2;
     }
+
+    // 5. The DoD of every free epoch after the rough co-registration: DIR/dod/<epoch>_rough.*.
+    const std::string dod_dir = out_dir + "/dod";
+    make_folder(dod_dir, "match_epochs");
+    const Dsm& reference_dsm = epochs[reference].folder.dsm;
+    std::vector<EpochDod> dods;
+    std::vector<Raster<std::uint8_t>> stable_masks(epochs.size());
+    for (std::size_t k = 0; k < reference; ++k) {
+      EpochDod d;
+      d.epoch = k;
+      const std::vector<Eigen::Vector3d> points = stable_points(epochs, reference, pairs, k);
+      d.stable_points = points.size();
+      stable_masks[k] = stable_mask_near_points(reference_dsm, points, kStableCells * reference_dsm.min_cell_size());
+      d.rough = write_dod(dod_dir, epochs[k].name + "_rough", reference_dsm, epochs[k].folder.dsm,
+                          epochs[k].reference_from_epoch, stable_masks[k],
+                          epochs[k].name + " - " + epochs[reference].name + ", rough co-registration", d.range_m, threads);
+      if (d.rough.success)
+        std::printf("DoD %s - %s, rough: median %.3f, NMAD %.3f on stable terrain (%zu cells), %.3f, %.3f on all\n",
+                    epochs[k].name.c_str(), epochs[reference].name.c_str(), d.rough.stable.median, d.rough.stable.nmad,
+                    d.rough.stable.count, d.rough.all.median, d.rough.all.nmad);
+      else
+        std::printf("DoD %s - %s, rough: none (%s)\n", epochs[k].name.c_str(), epochs[reference].name.c_str(),
+                    d.rough.reason.c_str());
+      dods.push_back(std::move(d));
+    }
+    write_report(out_dir + "/report.json", epochs, reference, pairs, options, method, matcher_name, dod_json(dods, epochs));
 #if DIACHRON_MATCH_EPOCHS_ADJUST
     if (adjust) {
-      // 5. The combined adjustment, epoch 2 as the reference.
+      // 6. The combined adjustment of all epochs, the reference held.
       CombinedAdjustmentOptions adjustment_options;
       if (affine == "camera") adjustment_options.bundle.affine_scope = AffineScope::per_camera;
-      if (!held.empty() || !priors.empty()) {
-        EpochFreedom epoch1 = EpochFreedom::all_free();
-        epoch1.fixed_intrinsics = held;
-        epoch1.intrinsic_priors = priors;
-        adjustment_options.bundle.epochs = {epoch1, EpochFreedom::all_fixed()};  // the stage's default, K's held
+      EpochFreedom free_epoch = EpochFreedom::all_free();
+      free_epoch.fixed_intrinsics = held;
+      free_epoch.intrinsic_priors = priors;
+      adjustment_options.bundle.epochs.assign(epochs.size(), free_epoch);
+      adjustment_options.bundle.epochs[reference] = EpochFreedom::all_fixed();
+      const bool ortho_reference = epochs[reference].folder.is_ortho();
+      // An orthophoto reference is no image of the adjustment (an epoch without images): its
+      // matches become control points observed in the free epochs' images
+      // (pipeline/orthophoto_reference.hpp).
+      std::vector<CombinedEpoch> combined;
+      std::vector<Helmert3> reference_from_epoch;
+      for (std::size_t k = 0; k < epochs.size(); ++k) {
+        combined.push_back(k == reference && ortho_reference ? CombinedEpoch{}
+                                                             : combined_epoch(epochs[k].folder, one_camera && k != reference));
+        reference_from_epoch.push_back(k == reference ? Helmert3::identity() : epochs[k].reference_from_epoch);
       }
-      const CombinedEpoch combined1 = combined_epoch(e1, one_camera);
-      // An orthophoto reference is no image of the adjustment: its matches become control points
-      // observed in epoch 1's images (pipeline/orthophoto_reference.hpp).
-      std::vector<CombinedControlPoint> all_control = control_points;
-      if (e2.is_ortho()) {
-        std::vector<OrthoFrame> tiles;
-        for (const EpochImage& t : e2.images) tiles.push_back(*t.ortho);
-        const double sigma =
-            orthophoto_control_sigma(combined1.frames, rough.epoch2_from_epoch1, e2.dsm.statistics().mean,
-                                     e2.ortho.cell_size(), adjustment_options.bundle.inter_epoch_sigma_px);
-        const OrthophotoControlPoints from_ortho = orthophoto_control_points(precise.pairs, tiles, e2.dsm, sigma);
-        all_control.insert(all_control.end(), from_ortho.points.begin(), from_ortho.points.end());
-        std::printf("orthophoto reference: %zu of %zu matches as control points (sigma %.3g epoch-2 units), %zu "
-                    "without DSM height\n",
-                    from_ortho.points.size(), from_ortho.matches, sigma, from_ortho.off_dsm);
+      std::vector<EpochsControlPoint> all_control = control_points;
+      std::vector<EpochLinkMatches> links;
+      for (const EpochPair& ep : pairs) {
+        if (!ep.precise.success) continue;
+        if (ep.secondary == reference && ortho_reference) {
+          std::vector<OrthoFrame> tiles;
+          for (const EpochImage& t : epochs[reference].folder.images) tiles.push_back(*t.ortho);
+          const double sigma = orthophoto_control_sigma(
+              combined[ep.master].frames, epochs[ep.master].reference_from_epoch, epochs[reference].folder.dsm.statistics().mean,
+              epochs[reference].folder.ortho.cell_size(), adjustment_options.bundle.inter_epoch_sigma_px);
+          const OrthophotoControlPoints from_ortho =
+              orthophoto_control_points(ep.precise.pairs, tiles, epochs[reference].folder.dsm, sigma);
+          for (const CombinedControlPoint& g : from_ortho.points) {
+            EpochsControlPoint c{g.position, g.sigma, std::vector<std::vector<ImagePixel>>(epochs.size())};
+            c.observations[ep.master] = g.epoch1;
+            all_control.push_back(std::move(c));
+          }
+          std::printf("orthophoto reference: %zu of %zu matches of %s as control points (sigma %.3g reference units), "
+                      "%zu without DSM height\n",
+                      from_ortho.points.size(), from_ortho.matches, epochs[ep.master].name.c_str(), sigma,
+                      from_ortho.off_dsm);
+          continue;
+        }
+        links.push_back({ep.master, ep.secondary, epoch_pair_matches(ep.precise.pairs)});
       }
-      const CombinedAdjustmentResult adjusted =
-          combined_adjustment(combined1, e2.is_ortho() ? CombinedEpoch{} : combined_epoch(e2, false),
-                              e2.is_ortho() ? std::vector<EpochPairMatches>{} : epoch_pair_matches(precise.pairs),
-                              rough.epoch2_from_epoch1, adjustment_options, all_control);
+      const CombinedEpochsResult adjusted = combined_epochs_adjustment(combined, reference_from_epoch, reference, links,
+                                                                       adjustment_options, all_control);
       std::vector<std::string> names;
-      for (const EpochFolder* e : {&e1, &e2})
-        if (!e->is_ortho())
-          for (const EpochImage& image : e->images) names.push_back(image.name);
+      std::vector<std::size_t> image_epoch;
+      for (std::size_t k = 0; k < epochs.size(); ++k)
+        for (std::size_t i = 0; i < combined[k].frames.size(); ++i) {
+          names.push_back(epochs[k].folder.images[i].name);
+          image_epoch.push_back(k);
+        }
       const BundleReport& r = adjusted.report;
       std::printf("adjustment: %s\n", r.message.c_str());
       if (!control.empty()) {
@@ -923,58 +1334,88 @@ int main(int argc, char** argv) {
             ++used;
             worst = std::max(worst, g.error.norm());
           }
-        std::printf("control points: %zu of %zu used, largest error %.3f (epoch-2 units; report.json lists them)\n",
+        std::printf("control points: %zu of %zu used, largest error %.3f (reference units; report.json lists them)\n",
                     used, control.size(), worst);
       }
-      // The check points triangulated in epoch 1's images, after the rough co-registration alone and
-      // after the adjustment: the paper's check-point table.
-      std::optional<std::pair<CheckPointReport, CheckPointReport>> checked;
-      if (!check_records.empty()) {
-        const std::vector<Frame<FraserAffine>> moved =
-            transformed_frames(combined1.frames, rough.epoch2_from_epoch1);
-        checked.emplace(evaluate_check_points(check_points, FrameTriangulator<FraserAffine>(moved)),
-                        r.success ? evaluate_check_points(check_points, FrameTriangulator<FraserAffine>(adjusted.epoch1))
-                                  : CheckPointReport{});
-        std::printf("check points (epoch-2 units), %zu of %zu triangulated in epoch 1's images:\n",
-                    checked->first.num_used, check_points.size());
-        std::printf("| orientation    | axis |    mean |  sigma | mean |e| |    RMS |\n");
-        for (const auto& [name, c] : {std::make_pair("rough only", &checked->first), std::make_pair("adjusted", &checked->second)}) {
-          if (!c->success) continue;
-          const char* axis[3] = {"x", "y", "z"};
-          for (std::size_t k = 0; k < 3; ++k)
-            std::printf("| %-14s | %s    | %7.3f | %6.3f | %8.3f | %6.3f |\n", k == 0 ? name : "", axis[k],
-                        c->axes_m[k].mean, c->axes_m[k].sigma, c->axes_m[k].mean_abs, c->axes_m[k].rms);
+      // Each free epoch's check points triangulated in its images, after the rough co-registration
+      // alone and after the adjustment: the paper's check-point table.
+      std::vector<EpochCheckPoints> checked;
+      for (std::size_t k = 0; k < reference && !check_points.empty(); ++k) {
+        std::vector<ObservedCheckPoint> observed;
+        for (const EpochsControlPoint& c : check_points) {
+          ObservedCheckPoint p{c.position, {}};
+          for (const ImagePixel& o : c.observations[k]) p.observations.push_back({static_cast<std::size_t>(o.image), o.pixel});
+          observed.push_back(std::move(p));
         }
-        if (checked->first.success && checked->second.success)
-          std::printf("3D RMS: rough only %.3f, adjusted %.3f\n", checked->first.rms_3d_m, checked->second.rms_3d_m);
+        const std::vector<Frame<FraserAffine>> moved = transformed_frames(combined[k].frames, reference_from_epoch[k]);
+        EpochCheckPoints c{k, evaluate_check_points(observed, FrameTriangulator<FraserAffine>(moved)), {}};
+        if (r.success) c.adjusted = evaluate_check_points(observed, FrameTriangulator<FraserAffine>(adjusted.epochs[k]));
+        std::printf("check points of %s (reference units), %zu of %zu triangulated in its images:\n",
+                    epochs[k].name.c_str(), c.rough.num_used, observed.size());
+        std::printf("| orientation    | axis |    mean |  sigma | mean |e| |    RMS |\n");
+        for (const auto& [name, report] : {std::make_pair("rough only", &c.rough), std::make_pair("adjusted", &c.adjusted)}) {
+          if (!report->success) continue;
+          const char* axis[3] = {"x", "y", "z"};
+          for (std::size_t a = 0; a < 3; ++a)
+            std::printf("| %-14s | %s    | %7.3f | %6.3f | %8.3f | %6.3f |\n", a == 0 ? name : "", axis[a],
+                        report->axes_m[a].mean, report->axes_m[a].sigma, report->axes_m[a].mean_abs,
+                        report->axes_m[a].rms);
+        }
+        if (c.rough.success && c.adjusted.success)
+          std::printf("3D RMS of %s: rough only %.3f, adjusted %.3f\n", epochs[k].name.c_str(), c.rough.rms_3d_m,
+                      c.adjusted.rms_3d_m);
+        checked.push_back(std::move(c));
       }
       if (!r.success) {
-        write_report(out_dir + "/report.json", e1, e2, rough, rough_source, overlap, precise, options, method, matcher_name,
-                     adjustment_json(adjusted, names, nullptr, adjustment_options.bundle.affine_scope, control, checked));
+        write_report(out_dir + "/report.json", epochs, reference, pairs, options, method, matcher_name,
+                     adjustment_json(adjusted, epochs, image_epoch, names, nullptr,
+                                     adjustment_options.bundle.affine_scope, control, checked) +
+                         dod_json(dods, epochs));
         std::printf("no adjustment: %s\n", r.message.c_str());
         return 2;
       }
-      // adjusted/<epoch>/ takes each folder's name; two folders of the same name become epoch1, epoch2.
-      std::string name1 = folder_name(dir1), name2 = folder_name(dir2);
-      if (name1 == name2 || name1.empty() || name2.empty() || name1 == "." || name2 == "." || name1 == ".." ||
-          name2 == ".." || name1 == "residuals" || name2 == "residuals") {
-        name1 = "epoch1";
-        name2 = "epoch2";
-      }
       std::vector<CamerasJsonImage> images;
-      for (std::size_t i = 0; i < e1.images.size(); ++i)
-        images.push_back(CamerasJsonImage::from_frame(e1.images[i].name, name1, adjusted.epoch1[i]));
-      for (std::size_t i = 0; i < adjusted.epoch2.size(); ++i)  // none for an orthophoto reference
-        images.push_back(CamerasJsonImage::from_frame(e2.images[i].name, name2, adjusted.epoch2[i]));
+      for (std::size_t k = 0; k < epochs.size(); ++k)
+        for (std::size_t i = 0; i < adjusted.epochs[k].size(); ++i)  // none for an orthophoto reference
+          images.push_back(CamerasJsonImage::from_frame(epochs[k].folder.images[i].name, epochs[k].name,
+                                                        adjusted.epochs[k][i]));
       AdjustedExportOptions export_options;
-      export_options.protected_folders = {dir1, dir2};
+      for (const Epoch& e : epochs) export_options.protected_folders.push_back(e.dir);
       const AdjustedExportReport exported = write_adjusted_export(images, out_dir, export_options);
-      if (pictures) write_residual_pictures(out_dir + "/adjusted/residuals", e1, pictures1, adjusted);
-      write_report(out_dir + "/report.json", e1, e2, rough, rough_source, overlap, precise, options, method, matcher_name,
-                   adjustment_json(adjusted, names, &exported, adjustment_options.bundle.affine_scope, control, checked));
-      // Against an orthophoto the inter-epoch ties are control points: no inter-epoch RMS to give.
+      if (pictures) write_residual_pictures(out_dir + "/adjusted/residuals", epochs, reference, picture_images, adjusted);
+      // The DoD after the adjustment: each free epoch's DSM placed by the similarity that best maps
+      // its points onto where the adjusted orientation puts them (eval/dsm_reintersection.hpp):
+      // DIR/dod/<epoch>.*, in the rough one's colours.
+      for (EpochDod& d : dods) {
+        const std::size_t k = d.epoch;
+        DsmReintersectionOptions reintersection;
+        reintersection.threads = threads;
+        const DsmReintersection placed =
+            reintersect_dsm(epochs[k].folder.dsm, combined[k].frames, adjusted.epochs[k], reintersection);
+        d.has_adjusted = true;
+        if (!placed.success) {
+          d.adjusted.reason = placed.reason;
+          std::printf("DoD %s - %s, adjusted: none (%s)\n", epochs[k].name.c_str(), epochs[reference].name.c_str(),
+                      placed.reason.c_str());
+          continue;
+        }
+        d.nonrigid_rms = placed.rms_nonrigid;
+        write_helmert_json(placed.reference_from_epoch, dod_dir + "/" + epochs[k].name + "_helmert.json");
+        d.adjusted = write_dod(dod_dir, epochs[k].name, reference_dsm, epochs[k].folder.dsm, placed.reference_from_epoch,
+                               stable_masks[k], epochs[k].name + " - " + epochs[reference].name + ", adjusted", d.range_m,
+                               threads);
+        if (d.adjusted.success)
+          std::printf("DoD %s - %s, adjusted: median %.3f, NMAD %.3f on stable terrain, %.3f, %.3f on all\n",
+                      epochs[k].name.c_str(), epochs[reference].name.c_str(), d.adjusted.stable.median,
+                      d.adjusted.stable.nmad, d.adjusted.all.median, d.adjusted.all.nmad);
+      }
+      write_report(out_dir + "/report.json", epochs, reference, pairs, options, method, matcher_name,
+                   adjustment_json(adjusted, epochs, image_epoch, names, &exported,
+                                   adjustment_options.bundle.affine_scope, control, checked) +
+                       dod_json(dods, epochs));
+      // Against an orthophoto the reference's ties are control points: no inter-epoch RMS of them.
       char inter[96];
-      if (e2.is_ortho())
+      if (ortho_reference && links.empty())
         std::snprintf(inter, sizeof inter, "the orthophoto's matches as control points");
       else
         std::snprintf(inter, sizeof inter, "inter-epoch %.3f -> %.3f px", r.before.inter_epoch.rms_px,

@@ -1,28 +1,30 @@
 // score_epochs: judges what `match_epochs --adjust` wrote for a scene that `make_scene` wrote, against
-// the scene's truth, and prints the paper's table.
+// the scene's truth, and prints the paper's table for every free epoch.
 //
 //   score_epochs SCENE_DIR OUT_DIR [--check]
 //
-// SCENE_DIR is make_scene's folder (two epoch folders and truth/), OUT_DIR match_epochs' --out.
-// Epoch 1's check points are triangulated from their true pixels twice, in epoch 2's frame:
-//   rough only     epoch 1 as its SfM estimated it, moved by OUT_DIR/rough_helmert.json
-//   full pipeline  epoch 1 as OUT_DIR/adjusted/cameras.json holds it
+// SCENE_DIR is make_scene's folder (the epoch folders and truth/), OUT_DIR match_epochs' --out, run
+// with the scene's last epoch as the reference (match_epochs' default). Each free epoch's check
+// points are triangulated from their true pixels twice, in the reference's frame:
+//   rough only     the epoch as its SfM estimated it, moved by OUT_DIR/rough_helmert_<epoch>.json
+//   full pipeline  the epoch as OUT_DIR/adjusted/cameras.json holds it
 // and compared with their true position: mean, sigma, mean |e| and RMS per axis (metres), the 3D
-// RMS in metres and epoch-1 GSD. Then epoch 1's camera as the SfM had it and as the adjustment
-// recovered it, against the truth (eval/distortion_difference.hpp), and the distortion's 1-sigma
-// the adjustment predicted without the truth (report.json, eval/distortion_precision.hpp).
+// RMS in metres and the epoch's GSD. Then the epoch's camera as the SfM had it and as the
+// adjustment recovered it, against the truth (eval/distortion_difference.hpp), and the distortion's
+// 1-sigma the adjustment predicted without the truth (report.json, eval/distortion_precision.hpp).
 //
-// It also requires cameras.json to hold every image of both epochs, epoch 2's orientation unchanged
-// (the reference is fixed) and epoch 1's images to share f, the principal point and K1-P2 (one
-// camera per epoch; B1 and B2 are per image). With --check it also requires the targets of
-// docs/adjustment.md: the adjusted RMS at least 3 times smaller than the rough one and below 1.5
-// epoch-1 GSD.
+// It also requires cameras.json to hold every image of every epoch, the reference's orientation
+// unchanged (it is fixed) and each free epoch's images to share f, the principal point and K1-P2
+// (one camera per epoch; B1 and B2 are per image). With --check it also requires the targets of
+// docs/adjustment.md for every free epoch: the adjusted RMS at least 3 times smaller than the rough
+// one and below 1.5 of the epoch's GSD.
 // Exit status: 0 success (and PASS with --check), 1 when a requirement fails, 2 on unreadable input.
 
 #include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <map>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <utility>
@@ -31,8 +33,11 @@
 #include <diachron/adjustment/triangulation.hpp>
 #include <diachron/eval/check_points.hpp>
 #include <diachron/eval/distortion_difference.hpp>
+#include <diachron/eval/dod_map.hpp>
+#include <diachron/eval/error_statistics.hpp>
 #include <diachron/eval/scene_check_points.hpp>
 #include <diachron/io/cameras_json.hpp>
+#include <diachron/io/folders.hpp>
 #include <diachron/io/helmert_json.hpp>
 #include <diachron/io/json.hpp>
 #include <diachron/synth/scene_io.hpp>
@@ -43,8 +48,8 @@ namespace {
 
 using Frames = std::vector<Frame<FraserAffine>>;
 
-CheckPointReport check_points(const Scene& scene, const Frames& epoch1) {
-  return evaluate_scene_check_points(scene, 0, 1, FrameTriangulator<FraserAffine>(epoch1));
+CheckPointReport check_points(const Scene& scene, std::size_t epoch, const Frames& frames) {
+  return evaluate_scene_check_points(scene, epoch, scene.epochs.size() - 1, FrameTriangulator<FraserAffine>(frames));
 }
 
 void print_check_points(const char* name, const CheckPointReport& r) {
@@ -59,21 +64,45 @@ int fail(const std::string& why) {
   return 1;
 }
 
-// Camera 0's (epoch 1's) "distortion_sigma" in report.json, or nullptr (no covariance, or an
-// older report).
-const JsonValue* epoch1_distortion_sigma(const JsonValue& report) {
+// The "distortion_sigma" of the first free camera of `epoch` in report.json, or nullptr (no
+// covariance, or an older report).
+const JsonValue* distortion_sigma(const JsonValue& report, const std::string& epoch) {
   const JsonValue* adjustment = report.find("adjustment");
   const JsonValue* cameras = adjustment ? adjustment->find("cameras") : nullptr;
   if (!cameras || cameras->type != JsonValue::Type::array) return nullptr;
   for (const JsonValue& c : cameras->array) {
-    const JsonValue* index = c.find("camera");
+    const JsonValue* name = c.find("epoch");
     const JsonValue* sigma = c.find("distortion_sigma");
-    if (index && index->type == JsonValue::Type::number && index->number == 0.0 && sigma &&
+    if (name && name->type == JsonValue::Type::string && name->string == epoch && sigma &&
         sigma->type == JsonValue::Type::object)
       return sigma;
   }
   return nullptr;
 }
+
+// How far the DoD of `moving` placed by `placed` is from the DoD with the true placement: the
+// median and RMS over the cells both maps have of |difference|, reference units. Only the placement
+// differs between the two, so this is the DoD's error due to the co-registration alone.
+std::pair<double, double> dod_placement_error(const Dsm& reference, const Dsm& moving, const Helmert3& placed,
+                                              const Helmert3& truth) {
+  const DodMap a = dod_map(reference, moving, placed), b = dod_map(reference, moving, truth);
+  std::vector<double> d;
+  if (a.success && b.success)
+    for (int y = 0; y < a.dz.height(); ++y)
+      for (int x = 0; x < a.dz.width(); ++x)
+        if (a.dz.valid(x, y) && b.dz.valid(x, y)) d.push_back(std::abs(a.dz.heights()(x, y) - b.dz.heights()(x, y)));
+  const ErrorStatistics s = error_statistics(d);  // NaN when empty
+  return {s.median, s.rms};
+}
+
+const char* kUsage =
+    "usage: score_epochs SCENE_DIR OUT_DIR [--check]\n"
+    "  SCENE_DIR: what make_scene wrote; OUT_DIR: what match_epochs --adjust wrote for its epoch folders\n"
+    "  (the last epoch the reference). Prints each free epoch's check points (rough only, full pipeline)\n"
+    "  and camera against the truth.\n"
+    "  Epochs of the scene that OUT_DIR does not hold (a run on some of them) are skipped.\n"
+    "  --check   also require every free epoch's adjusted check points 3 times closer than the rough\n"
+    "            ones and within 1.5 of its GSD (exit 1 otherwise)\n";
 
 }  // namespace
 
@@ -83,20 +112,31 @@ int main(int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--check") check = true;
-    else positional.push_back(a);
+    else if (a == "--help" || a == "-h") {
+      std::printf("%s", kUsage);
+      return 0;
+    } else if (!a.empty() && a[0] == '-') {
+      std::fprintf(stderr, "score_epochs: unknown option %s\n%s", a.c_str(), kUsage);
+      return 2;
+    } else positional.push_back(a);
   }
   if (positional.size() != 2) {
-    std::fprintf(stderr, "usage: score_epochs SCENE_DIR OUT_DIR [--check]\n");
+    std::fprintf(stderr, "%s", kUsage);
     return 2;
   }
   const std::string scene_dir = positional[0], out_dir = positional[1];
   try {
     const Scene scene = read_scene(scene_dir);
-    if (scene.epochs.size() != 2) return fail("the scene has " + std::to_string(scene.epochs.size()) + " epochs, not 2");
-    const SyntheticEpoch& e1 = scene.epochs[0];
-    const SyntheticEpoch& e2 = scene.epochs[1];
-    const Helmert3 helmert = read_helmert_json(out_dir + "/rough_helmert.json");
+    if (scene.epochs.size() < 2) return fail("the scene has " + std::to_string(scene.epochs.size()) + " epoch(s)");
+    const std::size_t reference = scene.epochs.size() - 1;
     const std::vector<CamerasJsonImage> adjusted = read_cameras_json(out_dir + "/adjusted/cameras.json");
+    // What the adjustment itself said, without the truth (match_epochs' report.json), if there.
+    std::optional<JsonValue> report;
+    if (std::ifstream in{out_dir + "/report.json"}) {
+      std::ostringstream text;
+      text << in.rdbuf();
+      report = parse_json(text.str(), out_dir + "/report.json");
+    }
 
     // cameras.json names images as images.txt does: the scene's name and ".png" (read_scene's lookup).
     std::map<std::string, const CamerasJsonImage*> by_name;
@@ -105,82 +145,110 @@ int main(int argc, char** argv) {
       const auto it = by_name.find(e.name + "/" + e.images[i].name + ".png");
       return it == by_name.end() ? nullptr : it->second;
     };
-    Frames rough, after;
-    for (std::size_t i = 0; i < e1.images.size(); ++i) {
-      const CamerasJsonImage* image = entry(e1, i);
-      if (!image) return fail("cameras.json has no image " + e1.name + "/" + e1.images[i].name);
-      rough.push_back(e1.estimated_frame(i).transformed(helmert));
-      after.push_back(image->frame());
-      const auto shared = [](const Camera<FraserAffine>& c) {
-        const auto k = c.intrinsics();
-        return std::vector<double>(k.begin(), k.end() - 2);  // all but B1, B2
-      };
-      if (i > 0 && shared(after[i].camera()) != shared(after[0].camera()))
-        return fail("epoch 1's images do not share f, the principal point and K1-P2 in cameras.json");
+    // The epochs the run had: the reference and every free epoch with a rough transform.
+    std::vector<bool> present(scene.epochs.size(), false);
+    std::size_t images = 0;
+    for (std::size_t k = 0; k < scene.epochs.size(); ++k) {
+      present[k] = k == reference || is_regular_file(out_dir + "/rough_helmert_" + scene.epochs[k].name + ".json");
+      if (present[k]) images += scene.epochs[k].images.size();
+      else std::printf("%s: not in this run (no rough_helmert_%s.json), skipped\n", scene.epochs[k].name.c_str(),
+                       scene.epochs[k].name.c_str());
     }
-    const Frames e2_input = e2.estimated_frames();
-    for (std::size_t i = 0; i < e2.images.size(); ++i) {
-      const CamerasJsonImage* image = entry(e2, i);
-      if (!image) return fail("cameras.json has no image " + e2.name + "/" + e2.images[i].name);
+    if (adjusted.size() != images)
+      return fail("cameras.json has " + std::to_string(adjusted.size()) + " images, the run's epochs " +
+                  std::to_string(images));
+    const SyntheticEpoch& ref = scene.epochs[reference];
+    const Frames ref_input = ref.estimated_frames();
+    for (std::size_t i = 0; i < ref.images.size(); ++i) {
+      const CamerasJsonImage* image = entry(ref, i);
+      if (!image) return fail("cameras.json has no image " + ref.name + "/" + ref.images[i].name);
       const Frame<FraserAffine> f = image->frame();
       // The reference is fixed: its orientation comes out as it went in (to the printed digits).
-      const double moved = (f.pose().centre() - e2_input[i].pose().centre()).norm();
-      const double scale = e2_input[i].pose().centre().norm();
+      const double moved = (f.pose().centre() - ref_input[i].pose().centre()).norm();
+      const double scale = ref_input[i].pose().centre().norm();
       if (!(moved <= 1e-6 * std::max(1.0, scale)))
-        return fail("epoch 2's image " + e2.images[i].name + " moved by " + std::to_string(moved));
+        return fail("the reference's image " + ref.images[i].name + " moved by " + std::to_string(moved));
     }
-    if (adjusted.size() != e1.images.size() + e2.images.size())
-      return fail("cameras.json has " + std::to_string(adjusted.size()) + " images, the scene " +
-                  std::to_string(e1.images.size() + e2.images.size()));
 
-    const CheckPointReport before = check_points(scene, rough), now = check_points(scene, after);
-    if (!before.success || !now.success) return fail("no check point could be triangulated: " + now.reason + before.reason);
-    std::printf("Check points of epoch 1 in the world frame, metres (GSD of epoch 1: %.1f m):\n", e1.gsd_m);
-    std::printf("| method         | axis |    mean |  sigma | mean |e| |    RMS |\n");
-    std::printf("|----------------|------|---------|--------|----------|--------|\n");
-    print_check_points("rough only", before);
-    print_check_points("full pipeline", now);
-    std::printf("3D RMS: rough only %.2f m (%.2f GSD, %zu points), full pipeline %.2f m (%.2f GSD, %zu points): "
-                "%.1f x smaller\n",
-                before.rms_3d_m, before.rms_3d_gsd, before.num_used, now.rms_3d_m, now.rms_3d_gsd, now.num_used,
-                before.rms_3d_m / now.rms_3d_m);
+    std::vector<std::string> failures;
+    for (std::size_t k = 0; k < reference; ++k) {
+      if (!present[k]) continue;
+      const SyntheticEpoch& e = scene.epochs[k];
+      const Helmert3 helmert = read_helmert_json(out_dir + "/rough_helmert_" + e.name + ".json");
+      Frames rough, after;
+      for (std::size_t i = 0; i < e.images.size(); ++i) {
+        const CamerasJsonImage* image = entry(e, i);
+        if (!image) return fail("cameras.json has no image " + e.name + "/" + e.images[i].name);
+        rough.push_back(e.estimated_frame(i).transformed(helmert));
+        after.push_back(image->frame());
+        const auto shared = [](const Camera<FraserAffine>& c) {
+          const auto q = c.intrinsics();
+          return std::vector<double>(q.begin(), q.end() - 2);  // all but B1, B2
+        };
+        if (i > 0 && shared(after[i].camera()) != shared(after[0].camera()))
+          return fail(e.name + "'s images do not share f, the principal point and K1-P2 in cameras.json");
+      }
+      const CheckPointReport before = check_points(scene, k, rough), now = check_points(scene, k, after);
+      if (!before.success || !now.success)
+        return fail("no check point of " + e.name + " could be triangulated: " + now.reason + before.reason);
+      std::printf("%sCheck points of %s in the world frame, metres (GSD of %s: %.2f m):\n", k ? "\n" : "",
+                  e.name.c_str(), e.name.c_str(), e.gsd_m);
+      std::printf("| method         | axis |    mean |  sigma | mean |e| |    RMS |\n");
+      std::printf("|----------------|------|---------|--------|----------|--------|\n");
+      print_check_points("rough only", before);
+      print_check_points("full pipeline", now);
+      std::printf("3D RMS of %s: rough only %.2f m (%.2f GSD, %zu points), full pipeline %.2f m (%.2f GSD, %zu points): "
+                  "%.1f x smaller\n",
+                  e.name.c_str(), before.rms_3d_m, before.rms_3d_gsd, before.num_used, now.rms_3d_m, now.rms_3d_gsd,
+                  now.num_used, before.rms_3d_m / now.rms_3d_m);
 
-    const Camera<FraserAffine>& truth = e1.camera;
-    const Camera<FraserAffine>& sfm = e1.estimated_camera;
-    const Camera<FraserAffine>& recovered = after.front().camera();
-    std::printf("\nEpoch 1's camera against the truth (px):\n");
-    // Worst over the image: the distortion alone; the whole camera with the focal length and
-    // principal point refitted; what no change of pose absorbs (eval/distortion_difference.hpp).
-    std::printf("| camera             | focal error | principal point error | distortion, worst | f, pp refitted, worst "
-                "| beyond a pose, worst |\n");
-    std::printf("|--------------------|-------------|-----------------------|-------------------|-----------------------"
-                "|----------------------|\n");
-    for (const auto& [name, c] : {std::pair<const char*, const Camera<FraserAffine>*>{"as the SfM had it", &sfm},
-                                  std::pair<const char*, const Camera<FraserAffine>*>{"after adjustment", &recovered}}) {
-      const DistortionDifference d = distortion_difference(*c, truth);
-      std::printf("| %-18s | %11.2f | %21.2f | %17.2f | %21.2f | %20.2f |\n", name, c->focal() - truth.focal(),
-                  (c->principal_point() - truth.principal_point()).norm(), d.max_px, d.refit_max_px,
-                  d.beyond_pose_max_px);
-    }
-    // What the adjustment itself said, without the truth (match_epochs' report.json).
-    std::ifstream in(out_dir + "/report.json");
-    if (in) {
-      std::ostringstream text;
-      text << in.rdbuf();
-      const JsonValue report = parse_json(text.str(), out_dir + "/report.json");
-      const JsonValue* sigma = epoch1_distortion_sigma(report);
+      const Camera<FraserAffine>& truth = e.camera;
+      const Camera<FraserAffine>& sfm = e.estimated_camera;
+      const Camera<FraserAffine>& recovered = after.front().camera();
+      std::printf("\n%s's camera against the truth (px):\n", e.name.c_str());
+      // Worst over the image: the distortion alone; the whole camera with the focal length and
+      // principal point refitted; what no change of pose absorbs (eval/distortion_difference.hpp).
+      std::printf("| camera             | focal error | principal point error | distortion, worst | f, pp refitted, worst "
+                  "| beyond a pose, worst |\n");
+      std::printf("|--------------------|-------------|-----------------------|-------------------|---------------------"
+                  "--|----------------------|\n");
+      for (const auto& [name, c] : {std::pair<const char*, const Camera<FraserAffine>*>{"as the SfM had it", &sfm},
+                                    std::pair<const char*, const Camera<FraserAffine>*>{"after adjustment", &recovered}}) {
+        const DistortionDifference d = distortion_difference(*c, truth);
+        std::printf("| %-18s | %11.2f | %21.2f | %17.2f | %21.2f | %20.2f |\n", name, c->focal() - truth.focal(),
+                    (c->principal_point() - truth.principal_point()).norm(), d.max_px, d.refit_max_px,
+                    d.beyond_pose_max_px);
+      }
+      const JsonValue* sigma = report ? distortion_sigma(*report, e.name) : nullptr;
       const JsonValue* worst = sigma ? sigma->find("worst_px") : nullptr;
       const JsonValue* rms = sigma ? sigma->find("rms_px") : nullptr;
       if (worst && rms && worst->type == JsonValue::Type::number && rms->type == JsonValue::Type::number)
         std::printf("Predicted by the adjustment (covariance): distortion 1-sigma %.2f px at worst, %.2f px RMS\n",
                     worst->number, rms->number);
-    }
-
-    if (check) {
-      if (now.num_used < before.num_used) return fail("fewer check points triangulate after the adjustment");
+      // The DoD's error due to the placement of the epoch's DSM (match_epochs' dod/), against the
+      // DoD with the true placement.
+      const Helmert3 truth = scene.transform(reference, k);
+      const auto [rough_median, rough_rms] = dod_placement_error(ref.dsm, e.dsm, helmert, truth);
+      std::printf("DoD of %s, error of the placement against the true one (reference units): rough median %.3f, "
+                  "RMS %.3f",
+                  e.name.c_str(), rough_median, rough_rms);
+      const std::string adjusted_helmert = out_dir + "/dod/" + e.name + "_helmert.json";
+      if (is_regular_file(adjusted_helmert)) {
+        const auto [median, rms] = dod_placement_error(ref.dsm, e.dsm, read_helmert_json(adjusted_helmert), truth);
+        std::printf("; adjusted median %.3f, RMS %.3f", median, rms);
+      }
+      std::printf("\n");
+      if (now.num_used < before.num_used) failures.push_back(e.name + ": fewer check points triangulate after the adjustment");
       if (!(now.rms_3d_m * 3.0 <= before.rms_3d_m))
-        return fail("the adjusted RMS is not 3 times smaller than the rough one");
-      if (!(now.rms_3d_gsd < 1.5)) return fail("the adjusted RMS is not below 1.5 GSD");
+        failures.push_back(e.name + ": the adjusted RMS is not 3 times smaller than the rough one");
+      if (!(now.rms_3d_gsd < 1.5)) failures.push_back(e.name + ": the adjusted RMS is not below 1.5 GSD");
+    }
+    if (check) {
+      if (!failures.empty()) {
+        std::string all;
+        for (const std::string& f : failures) all += (all.empty() ? "" : "; ") + f;
+        return fail(all);
+      }
       std::printf("PASS\n");
     }
     return 0;

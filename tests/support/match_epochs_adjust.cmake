@@ -1,5 +1,5 @@
 # match_epochs --adjust end to end on the smallest make_scene scene that co-registers (800 x 600 px,
-# 2 x 2 images per epoch, seed 1): exit 0, every output the docs promise (rough_helmert.json, Homol,
+# 2 x 2 images per epoch, seed 1): exit 0, every output the docs promise (rough_helmert_e1.json, Homol,
 # report.json with the adjustment's section, adjusted/cameras.json and one COLMAP text model per
 # epoch), the adjusted epoch 1 judged at the scene's check points by score_epochs --check, and the
 # inputs unchanged. With 4 of the scene's check points as ground control points (make_scene
@@ -18,7 +18,7 @@ execute_process(COMMAND "${MATCH_EPOCHS}" "${WORK}/scene/e1" "${WORK}/scene/e2" 
 if(NOT status EQUAL 0)
   message(FATAL_ERROR "match_epochs --adjust exited with ${status}, expected 0\n${out}\n${err}")
 endif()
-foreach(f rough_helmert.json report.json adjusted/cameras.json adjusted/e1/cameras.txt adjusted/e1/images.txt
+foreach(f rough_helmert_e1.json report.json dod/e1_rough.tif dod/e1_rough.png dod/e1.tif dod/e1.png adjusted/cameras.json adjusted/e1/cameras.txt adjusted/e1/images.txt
           adjusted/e1/points3D.txt adjusted/e2/cameras.txt adjusted/e2/images.txt adjusted/e2/points3D.txt)
   if(NOT EXISTS "${WORK}/out/${f}")
     message(FATAL_ERROR "match_epochs --adjust wrote no ${f}")
@@ -51,8 +51,8 @@ if(NOT report MATCHES "\"camera\": *0, [^\n]*\"priors\": *{\"f\": *5}"
   message(FATAL_ERROR "report.json does not list epoch 1's prior on f (and none for epoch 2):\n${report}")
 endif()
 # Each camera says whose it is: the scene's epochs have one camera each.
-if(NOT report MATCHES "\"camera\": *0, [^\n]*\"epoch\": *1, *\"images\": *[[]\"e1_[^]]*[]]"
-   OR NOT report MATCHES "\"camera\": *1, [^\n]*\"epoch\": *2, *\"images\": *[[]\"e2_")
+if(NOT report MATCHES "\"camera\": *0, [^\n]*\"epoch\": *\"e1\", *\"images\": *[[]\"e1_[^]]*[]]"
+   OR NOT report MATCHES "\"camera\": *1, [^\n]*\"epoch\": *\"e2\", *\"images\": *[[]\"e2_")
   message(FATAL_ERROR "report.json does not give each camera its epoch and images:\n${report}")
 endif()
 # The control points: all four used, each within a tenth of an epoch-2 unit of its position (their
@@ -74,6 +74,10 @@ foreach(p IN LISTS used_points)
   endforeach()
 endforeach()
 check_points_three_times_better("${report}" "match_epochs --check-points")
+# The DoD of epoch 1 before and after the adjustment, with statistics on stable terrain.
+if(NOT report MATCHES "\"dod\": {\"stable_radius_cells\": 4,[^\n]*\n *\"e1\": {\"stable_points\": [1-9][0-9]*[^\n]*\n *\"rough\": {\"all\": {\"cells\": [1-9][^\n]*\n *\"adjusted\": {\"all\": {\"cells\": [1-9]")
+  message(FATAL_ERROR "report.json has no DoD of epoch 1, rough and adjusted:\n${report}")
+endif()
 execute_process(COMMAND "${SCORE}" "${WORK}/scene" "${WORK}/out" --check RESULT_VARIABLE scored OUTPUT_VARIABLE score)
 if(NOT scored EQUAL 0)
   message(FATAL_ERROR "the adjusted orientation fails its check points (${scored}):\n${score}")

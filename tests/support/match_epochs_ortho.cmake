@@ -26,10 +26,10 @@ if(NOT homol)
   message(FATAL_ERROR "Homol/ names no orthophoto tile (ortho_x<X>_y<Y>.tif):\n${all}")
 endif()
 file(READ "${WORK}/out/report.json" report)
-if(NOT report MATCHES "\"epochs\": \\[{\"kind\": \"photos\", \"images\": 4}, {\"kind\": \"orthophoto\", \"images\": [0-9]+}\\]")
+if(NOT report MATCHES "\"kind\": \"photos\", \"images\": 4,[^\n]*\n[^\n]*\n *{\"name\": \"e2\"[^\n]*\"kind\": \"orthophoto\", \"images\": [0-9]+")
   message(FATAL_ERROR "report.json does not give the epochs' kinds:\n${report}")
 endif()
-if(NOT report MATCHES "\"rough_coregistration\": {\"source\": \"dsm\", \"success\": true")
+if(NOT report MATCHES "\"rough_coregistration\": {\"source\": \"dsm\", \"via\": null, \"success\": true")
   message(FATAL_ERROR "report.json does not say the rough transform came from the DSMs:\n${report}")
 endif()
 if(NOT report MATCHES "\"adjustment\": *{\"success\": *true")
@@ -59,14 +59,14 @@ if(NOT status EQUAL 2 OR NOT out MATCHES "no overlapping pair")
 endif()
 
 # A given transform a little wrong, as a previous run or GCPs give: the DSM co-registration's own
-# rough_helmert.json from the first run, moved 10 epoch-2 units along X (5.3 m on this scene's
+# rough_helmert_e1.json from the first run, moved 10 epoch-2 units along X (5.3 m on this scene's
 # ground, about 5 of epoch 1's pixels: inside the correlation's +-12 px search). The second pass
 # around the refitted transform recovers: exit 0, the report names the file, and at least half the
 # first run's final matches.
-file(READ "${WORK}/out/rough_helmert.json" given)
+file(READ "${WORK}/out/rough_helmert_e1.json" given)
 string(REGEX MATCH "\"translation\": \\[([-0-9.e+]+)," tx "${given}")
 if(NOT tx)
-  message(FATAL_ERROR "rough_helmert.json has no translation:\n${given}")
+  message(FATAL_ERROR "rough_helmert_e1.json has no translation:\n${given}")
 endif()
 set(x "${CMAKE_MATCH_1}")
 if(x MATCHES "[eE]")

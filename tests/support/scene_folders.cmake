@@ -30,7 +30,7 @@ endfunction()
 # there with no failed point, the same number used (at least 10), and the adjusted RMS is at least
 # 3 times smaller. WHAT names the run in the messages. Prints both RMS.
 function(check_points_three_times_better report what)
-  if(NOT report MATCHES "\"check_points\": {\"rough\": {\"used\": ([0-9]+), \"failed\": 0, \"rms_3d\": ([0-9.e+-]+)")
+  if(NOT report MATCHES "\"check_points\": {[^{]*{\"rough\": {\"used\": ([0-9]+), \"failed\": 0, \"rms_3d\": ([0-9.e+-]+)")
     message(FATAL_ERROR "${what}: report.json has no check-point figures after the rough co-registration:\n${report}")
   endif()
   set(rough_used "${CMAKE_MATCH_1}")
