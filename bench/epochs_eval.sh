@@ -8,10 +8,11 @@
 # Prints per seed and free epoch the check points' 3D RMS (metres, and in the epoch's GSD): rough
 # only, pairwise, joint; the tracks tying the epoch directly to the reference and to the other film;
 # the DoD's placement error (median |DoD - DoD with the true placement|, reference units) rough and
-# joint; and the wall time and peak memory of the joint run and of the pairwise e1 e3 run.
+# joint; and (on stderr) the wall time and peak memory of the joint run and of each pairwise run.
 #
 #   bench/epochs_eval.sh BUILD_DIR WORK_DIR [SEED ...]     (default seeds 0 1 2 3 4; about 8 min each
 #                                                          on 2 cores)
+# With SCORE_ONLY=1 in the environment the runs already in WORK_DIR are scored again, not repeated.
 set -euo pipefail
 build=${1:?usage: epochs_eval.sh BUILD_DIR WORK_DIR [SEED ...]}
 work=${2:?usage: epochs_eval.sh BUILD_DIR WORK_DIR [SEED ...]}
@@ -26,14 +27,15 @@ for tool in "$make_scene" "$match" "$score"; do
 done
 mkdir -p "$work"
 
-# run NAME COMMAND...: runs a command under GNU time, its output in NAME.log; prints "seconds MB".
+# run NAME COMMAND...: runs a command under GNU time, its output in NAME.log, "seconds KB" in NAME.time.
 run() {
   local name=$1
   shift
   /usr/bin/time -f "%e %M" -o "$work/$name.time" "$@" > "$work/$name.log" 2>&1 || true
-  awk '{printf "%.0f s, %.0f MB", $1, $2 / 1024}' "$work/$name.time"
 }
-# rms LOG EPOCH: "rough pipeline" 3D RMS of EPOCH from score_epochs' output.
+# cost NAME: "seconds s, MB MB" of a timed run.
+cost() { [ -f "$work/$1.time" ] && awk '{printf "%.0f s, %.0f MB", $1, $2 / 1024}' "$work/$1.time" || echo "not timed"; }
+# rms LOG EPOCH: "rough pipeline pipeline_gsd", the 3D RMS of EPOCH in score_epochs' output.
 rms() { sed -n "s/^3D RMS of $2: rough only \([0-9.]*\) m (\([0-9.]*\) GSD.*full pipeline \([0-9.]*\) m (\([0-9.]*\) GSD.*/\1 \3 \4/p" "$1"; }
 placement() { sed -n "s/^DoD of $2, error of the placement against the true one (reference units): rough median \([0-9.na-]*\), RMS [0-9.na-]*; adjusted median \([0-9.na-]*\).*/\1 \2/p" "$1"; }
 links() { # links REPORT A B: tracks tying epochs A and B in report.json
@@ -46,17 +48,21 @@ for seed in "${seeds[@]}"; do
   scene=$work/scene$seed
   [ -f "$scene/truth/scene.txt" ] || "$make_scene" "$scene" --preset decades --epochs 3 --seed "$seed" > "$work/scene$seed.log" 2>&1
   out=$work/joint$seed
-  rm -rf "$out" "$work/pair13_$seed" "$work/pair23_$seed"
-  joint=$(run joint$seed "$match" "$scene/e1" "$scene/e2" "$scene/e3" --out "$out" --adjust --no-pictures --quiet)
-  pair13=$(run pair13_$seed "$match" "$scene/e1" "$scene/e3" --out "$work/pair13_$seed" --adjust --no-pictures --quiet \
-           --rough "$out/rough_helmert_e1.json")
-  "$match" "$scene/e2" "$scene/e3" --out "$work/pair23_$seed" --adjust --no-pictures --quiet \
-           --rough "$out/rough_helmert_e2.json" > "$work/pair23_$seed.log" 2>&1 || true
+  if [ -z "${SCORE_ONLY:-}" ]; then
+    rm -rf "$out" "$work/pair13_$seed" "$work/pair23_$seed"
+    run joint$seed "$match" "$scene/e1" "$scene/e2" "$scene/e3" --out "$out" --adjust --no-pictures --quiet > /dev/null
+    run pair13_$seed "$match" "$scene/e1" "$scene/e3" --out "$work/pair13_$seed" --adjust --no-pictures --quiet \
+        --rough "$out/rough_helmert_e1.json" > /dev/null
+    run pair23_$seed "$match" "$scene/e2" "$scene/e3" --out "$work/pair23_$seed" --adjust --no-pictures --quiet \
+        --rough "$out/rough_helmert_e2.json"
+  fi
+  joint=$(cost joint$seed)
+  pair13=$(cost pair13_$seed)
+  pair23=$(cost pair23_$seed)
   "$score" "$scene" "$out" > "$work/score_joint$seed.txt" 2>&1 || true
   "$score" "$scene" "$work/pair13_$seed" > "$work/score_pair13_$seed.txt" 2>&1 || true
   "$score" "$scene" "$work/pair23_$seed" > "$work/score_pair23_$seed.txt" 2>&1 || true
   for e in e1 e2; do
-    other=$([ $e = e1 ] && echo e2 || echo e1)
     pair=$([ $e = e1 ] && echo pair13_$seed || echo pair23_$seed)
     read -r rough joint_m joint_gsd <<< "$(rms "$work/score_joint$seed.txt" $e || true)"
     read -r _ pair_m _ <<< "$(rms "$work/score_$pair.txt" $e || true)"
@@ -65,5 +71,5 @@ for seed in "${seeds[@]}"; do
     film_links=$(links "$out/report.json" e1 e2 || true)
     echo "| $seed | $e | ${rough:-?} | ${pair_m:-failed} | ${joint_m:-failed} | ${joint_gsd:-?} | ${ref_links:-0} | ${film_links:-0} | ${place_rough:-?} | ${place_joint:-?} |"
   done
-  echo "seed $seed: joint e1 e2 e3 $joint; pairwise e1 e3 $pair13" >&2
+  echo "seed $seed: joint e1 e2 e3 $joint; pairwise e1 e3 $pair13, e2 e3 $pair23" >&2
 done

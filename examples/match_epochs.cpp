@@ -73,6 +73,7 @@
 #include <diachron/io/geotiff.hpp>
 #include <diachron/io/helmert_json.hpp>
 #include <diachron/io/homol.hpp>
+#include <diachron/pipeline/epoch_placement.hpp>
 #include <diachron/pipeline/overlapping_pairs.hpp>
 #include <diachron/pipeline/precise_matching.hpp>
 #include <diachron/pipeline/rough_coregistration.hpp>
@@ -720,7 +721,8 @@ struct EpochDod {
   std::size_t stable_points = 0;  // matches with the reference placed on its DSM
   DodMapStatistics rough, adjusted;
   bool has_adjusted = false;
-  double range_m = 0.0;                                       // the pictures' colour range (both alike)
+  Dsm rough_dz, adjusted_dz;      // the maps (empty: none), kept to draw both in one colour range
+  double range_m = 0.0;           // the pictures' colour range
   double nonrigid_rms = std::numeric_limits<double>::quiet_NaN();  // reintersection's bend beyond a similarity
 };
 
@@ -742,26 +744,42 @@ std::vector<Eigen::Vector3d> stable_points(const std::vector<Epoch>& epochs, std
   return out;
 }
 
-// One DoD map out: DIR/dod/<stem>.tif (float, nodata where either DSM has none) and <stem>.png.
-DodMapStatistics write_dod(const std::string& dir, const std::string& stem, const Dsm& reference, const Dsm& moving,
-                           const Helmert3& reference_from_moving, const Raster<std::uint8_t>& stable,
-                           const std::string& title, double& range_m, std::size_t threads) {
+// One DoD map: computed, written as DIR/dod/<stem>.tif (float, nodata where either DSM has none),
+// kept in `dz`, its statistics returned; `stable` empty: no stable mask (its statistics NaN).
+DodMapStatistics compute_dod(const std::string& dir, const std::string& stem, const Dsm& reference, const Dsm& moving,
+                             const Helmert3& reference_from_moving, const Raster<std::uint8_t>& stable, Dsm& dz,
+                             std::size_t threads) {
   DodMapOptions options;
   options.threads = threads;
-  const DodMap map = dod_map(reference, moving, reference_from_moving, options);
+  DodMap map = dod_map(reference, moving, reference_from_moving, options);
   if (!map.success) {
     DodMapStatistics none;
     none.reason = map.reason;
     return none;
   }
   write_geotiff_dsm(map.dz, dir + "/" + stem + ".tif");
+  dz = std::move(map.dz);
+  return dod_map_statistics(dz, stable.empty() ? nullptr : &stable);
+}
+
+// The pictures of an epoch's maps, DIR/dod/<name>_rough.png and <name>.png, in one colour range
+// (the wider of the two maps' defaults) so that they compare at a glance.
+void draw_dods(const std::string& dir, EpochDod& d, const std::string& name, const std::string& reference,
+               const Raster<std::uint8_t>& stable) {
   DrawDodOptions picture;
-  picture.title = title;
-  picture.stable = &stable;
-  if (range_m <= 0.0) range_m = dod_colour_range(map.dz, picture);
-  picture.range_m = range_m;
-  write_dod_png(dir + "/" + stem + ".png", map.dz, picture);
-  return dod_map_statistics(map.dz, &stable);
+  picture.stable = stable.empty() ? nullptr : &stable;
+  d.range_m = 0.0;
+  for (const Dsm* dz : {&d.rough_dz, &d.adjusted_dz})
+    if (!dz->empty()) d.range_m = std::max(d.range_m, dod_colour_range(*dz, picture));
+  picture.range_m = d.range_m;
+  if (!d.rough_dz.empty()) {
+    picture.title = name + " - " + reference + ", rough co-registration";
+    write_dod_png(dir + "/" + name + "_rough.png", d.rough_dz, picture);
+  }
+  if (!d.adjusted_dz.empty()) {
+    picture.title = name + " - " + reference + ", adjusted";
+    write_dod_png(dir + "/" + name + ".png", d.adjusted_dz, picture);
+  }
 }
 
 void dod_statistics_json(std::ostream& o, const ErrorStatistics& e) {
@@ -1069,53 +1087,37 @@ int main(int argc, char** argv) {
     // SIFT on slope images), or given. An epoch that fails goes through another free epoch already
     // placed, the best-trusted first; the chain may grow as epochs are placed.
     std::vector<EpochPair> pairs;
-    const auto coregister = [&](const Epoch& from, const Epoch& to) {
-      RoughCoregistrationOptions rough_options;
-      rough_options.threads = threads;
-      rough_options.progress = progress;
-      rough_options.correlation_fallback = fallback;
-      return rough_coregistration(from.folder.dsm, to.folder.dsm, ExtractorPairMatcher<SiftExtractor>(SiftExtractor{}),
-                                  rough_options);
-    };
+    std::vector<std::optional<Helmert3>> given;
+    for (const Epoch& e : epochs) given.push_back(e.given);
+    const std::vector<EpochPlacement> placements = place_epochs(
+        epochs.size(), reference, given,
+        [&](std::size_t from, std::size_t to) {
+          RoughCoregistrationOptions rough_options;
+          rough_options.threads = threads;
+          rough_options.progress = progress;
+          rough_options.correlation_fallback = fallback;
+          return rough_coregistration(epochs[from].folder.dsm, epochs[to].folder.dsm,
+                                      ExtractorPairMatcher<SiftExtractor>(SiftExtractor{}), rough_options);
+        },
+        [&](std::size_t from, std::size_t to, const RoughCoregistrationReport& r) {
+          std::printf("rough co-registration %s -> %s: %s\n", epochs[from].name.c_str(), epochs[to].name.c_str(),
+                      r.message.c_str());
+        });
     for (std::size_t k = 0; k < reference; ++k) {
       Epoch& e = epochs[k];
-      if (e.given) {
+      const EpochPlacement& p = placements[k];
+      e.placed = p.placed;
+      e.reference_from_epoch = p.reference_from_epoch;
+      e.rough = p.report;
+      if (p.given) {
         e.rough.success = true;
-        e.rough.epoch2_from_epoch1 = *e.given;
+        e.rough.epoch2_from_epoch1 = p.reference_from_epoch;
         e.rough.message = e.rough_mode == "identity" ? "given: the identity (--rough identity)"
                                                      : "given: " + e.rough_mode + " (--rough FILE)";
-      } else {
-        e.rough = coregister(e, epochs[reference]);
       }
-      e.placed = e.rough.success;
-      e.reference_from_epoch = e.rough.epoch2_from_epoch1;
-      std::printf("rough co-registration %s -> %s: %s\n", e.name.c_str(), epochs[reference].name.c_str(),
-                  e.rough.message.c_str());
-    }
-    for (bool grew = true; grew;) {
-      grew = false;
-      std::vector<std::size_t> placed;  // free epochs placed, high trust first, then by name
-      for (std::size_t k = 0; k < reference; ++k)
-        if (epochs[k].placed) placed.push_back(k);
-      std::stable_sort(placed.begin(), placed.end(), [&](std::size_t a, std::size_t b) {
-        return static_cast<int>(epochs[a].rough.trust) > static_cast<int>(epochs[b].rough.trust);
-      });
-      for (std::size_t k = 0; k < reference; ++k) {
-        Epoch& e = epochs[k];
-        if (e.placed || e.given) continue;
-        for (std::size_t f : placed) {
-          RoughCoregistrationReport r = coregister(e, epochs[f]);
-          std::printf("rough co-registration %s -> %s: %s\n", e.name.c_str(), epochs[f].name.c_str(), r.message.c_str());
-          if (!r.success) continue;
-          e.reference_from_epoch = epochs[f].reference_from_epoch * r.epoch2_from_epoch1;
-          // A chain is no more trusted than its weakest link.
-          r.trust = static_cast<int>(epochs[f].rough.trust) < static_cast<int>(r.trust) ? epochs[f].rough.trust : r.trust;
-          r.message = "through " + epochs[f].name + ": " + r.message;
-          e.rough = std::move(r);
-          e.via = epochs[f].name;
-          e.placed = grew = true;
-          break;
-        }
+      if (p.via) {
+        e.via = epochs[*p.via].name;
+        e.rough.message = "through " + e.via + ": " + e.rough.message;
       }
     }
     for (std::size_t k = 0; k < reference; ++k) {
@@ -1255,10 +1257,12 @@ int main(int argc, char** argv) {
       d.epoch = k;
       const std::vector<Eigen::Vector3d> points = stable_points(epochs, reference, pairs, k);
       d.stable_points = points.size();
-      stable_masks[k] = stable_mask_near_points(reference_dsm, points, kStableCells * reference_dsm.min_cell_size());
-      d.rough = write_dod(dod_dir, epochs[k].name + "_rough", reference_dsm, epochs[k].folder.dsm,
-                          epochs[k].reference_from_epoch, stable_masks[k],
-                          epochs[k].name + " - " + epochs[reference].name + ", rough co-registration", d.range_m, threads);
+      // An epoch tied to the reference only through other epochs has no such points: all cells then.
+      if (!points.empty())
+        stable_masks[k] = stable_mask_near_points(reference_dsm, points, kStableCells * reference_dsm.min_cell_size());
+      d.rough = compute_dod(dod_dir, epochs[k].name + "_rough", reference_dsm, epochs[k].folder.dsm,
+                            epochs[k].reference_from_epoch, stable_masks[k], d.rough_dz, threads);
+      draw_dods(dod_dir, d, epochs[k].name, epochs[reference].name, stable_masks[k]);
       if (d.rough.success)
         std::printf("DoD %s - %s, rough: median %.3f, NMAD %.3f on stable terrain (%zu cells), %.3f, %.3f on all\n",
                     epochs[k].name.c_str(), epochs[reference].name.c_str(), d.rough.stable.median, d.rough.stable.nmad,
@@ -1401,9 +1405,9 @@ int main(int argc, char** argv) {
         }
         d.nonrigid_rms = placed.rms_nonrigid;
         write_helmert_json(placed.reference_from_epoch, dod_dir + "/" + epochs[k].name + "_helmert.json");
-        d.adjusted = write_dod(dod_dir, epochs[k].name, reference_dsm, epochs[k].folder.dsm, placed.reference_from_epoch,
-                               stable_masks[k], epochs[k].name + " - " + epochs[reference].name + ", adjusted", d.range_m,
-                               threads);
+        d.adjusted = compute_dod(dod_dir, epochs[k].name, reference_dsm, epochs[k].folder.dsm,
+                                 placed.reference_from_epoch, stable_masks[k], d.adjusted_dz, threads);
+        draw_dods(dod_dir, d, epochs[k].name, epochs[reference].name, stable_masks[k]);
         if (d.adjusted.success)
           std::printf("DoD %s - %s, adjusted: median %.3f, NMAD %.3f on stable terrain, %.3f, %.3f on all\n",
                       epochs[k].name.c_str(), epochs[reference].name.c_str(), d.adjusted.stable.median,

@@ -227,14 +227,14 @@ int main(int argc, char** argv) {
                     worst->number, rms->number);
       // The DoD's error due to the placement of the epoch's DSM (match_epochs' dod/), against the
       // DoD with the true placement.
-      const Helmert3 truth = scene.transform(reference, k);
-      const auto [rough_median, rough_rms] = dod_placement_error(ref.dsm, e.dsm, helmert, truth);
+      const Helmert3 true_placement = scene.transform(reference, k);
+      const auto [rough_median, rough_rms] = dod_placement_error(ref.dsm, e.dsm, helmert, true_placement);
       std::printf("DoD of %s, error of the placement against the true one (reference units): rough median %.3f, "
                   "RMS %.3f",
                   e.name.c_str(), rough_median, rough_rms);
       const std::string adjusted_helmert = out_dir + "/dod/" + e.name + "_helmert.json";
       if (is_regular_file(adjusted_helmert)) {
-        const auto [median, rms] = dod_placement_error(ref.dsm, e.dsm, read_helmert_json(adjusted_helmert), truth);
+        const auto [median, rms] = dod_placement_error(ref.dsm, e.dsm, read_helmert_json(adjusted_helmert), true_placement);
         std::printf("; adjusted median %.3f, RMS %.3f", median, rms);
       }
       std::printf("\n");

@@ -15,6 +15,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <cstdint>
 #include <limits>
 #include <string>
 #include <vector>
@@ -92,18 +93,23 @@ DsmReintersection reintersect_dsm(const Dsm& dsm, const std::vector<Frame<Distor
   TriangulationOptions triangulation = options.triangulation;
   triangulation.min_views = options.min_images;
   const int w = dsm.width(), h = dsm.height();
-  const auto nan = std::numeric_limits<double>::quiet_NaN();
-  // Per cell: its point and its reintersected point (NaN when not reintersected).
-  std::vector<Vec3> source(static_cast<std::size_t>(w) * static_cast<std::size_t>(h), Vec3::Constant(nan));
-  std::vector<Vec3> target(source.size(), Vec3::Constant(nan));
+  const std::size_t n = static_cast<std::size_t>(w) * static_cast<std::size_t>(h);
+  DIACHRON_CHECK(n < (std::size_t{1} << 32), "reintersect_dsm: " << w << " x " << h << " cells are too many");
+  // A cell's point; its reintersected point is kept as the move from it in single precision (the
+  // moves are metres at most, far within float's 7 digits), 12 bytes a cell instead of 48: a DSM of
+  // tens of millions of cells stays within memory.
+  const auto point_of = [&dsm](std::size_t k, int width) {
+    const int x = static_cast<int>(k % static_cast<std::size_t>(width)), y = static_cast<int>(k / static_cast<std::size_t>(width));
+    const Eigen::Vector2d xy = dsm.pixel_to_world({x, y});
+    return Vec3(xy.x(), xy.y(), dsm.heights()(x, y));
+  };
+  std::vector<Eigen::Vector3f> move(n, Eigen::Vector3f::Constant(std::numeric_limits<float>::quiet_NaN()));
   parallel_for(static_cast<std::size_t>(h), options.threads, [&](std::size_t row) {
     const int y = static_cast<int>(row);
     for (int x = 0; x < w; ++x) {
       if (!dsm.valid(x, y)) continue;
-      const Eigen::Vector2d xy = dsm.pixel_to_world({x, y});
-      const Vec3 point(xy.x(), xy.y(), dsm.heights()(x, y));
       const std::size_t k = row * static_cast<std::size_t>(w) + static_cast<std::size_t>(x);
-      source[k] = point;
+      const Vec3 point = point_of(k, w);
       Track track;
       for (std::size_t i = 0; i < before.size(); ++i) {
         const std::optional<Vec2> px = before[i].project(point);
@@ -112,14 +118,27 @@ DsmReintersection reintersect_dsm(const Dsm& dsm, const std::vector<Frame<Distor
       }
       if (static_cast<int>(track.observations.size()) < options.min_images) continue;
       const TriangulationResult r = triangulate_track(after, track, triangulation);
-      if (r.success) target[k] = r.point;
+      if (r.success) move[k] = (r.point - point).cast<float>();
     }
   });
-  std::vector<PointPair3> pairs;
-  for (std::size_t k = 0; k < source.size(); ++k) {
-    out.cells += source[k].allFinite() ? 1 : 0;
-    if (source[k].allFinite() && target[k].allFinite()) pairs.push_back({source[k], target[k]});
+  // The reintersected cells as Procrustes pairs, computed when read.
+  std::vector<std::uint32_t> cells;
+  for (std::size_t k = 0; k < n; ++k) {
+    if (move[k].allFinite()) cells.push_back(static_cast<std::uint32_t>(k));
+    if (!std::isnan(dsm.heights().data()[k])) ++out.cells;
   }
+  struct Pairs {
+    const std::vector<std::uint32_t>& cells;
+    const std::vector<Eigen::Vector3f>& move;
+    decltype(point_of)& point;
+    int width;
+    std::size_t size() const { return cells.size(); }
+    PointPair3 operator[](std::size_t i) const {
+      const Vec3 p = point(cells[i], width);
+      return {p, p + move[cells[i]].cast<double>()};
+    }
+  };
+  const Pairs pairs{cells, move, point_of, w};
   out.reintersected = pairs.size();
   const std::optional<Helmert3> fit = pairs.size() >= 3 ? fit_helmert3(pairs) : std::nullopt;
   if (!fit) {
@@ -134,21 +153,21 @@ DsmReintersection reintersect_dsm(const Dsm& dsm, const std::vector<Frame<Distor
   // applied at the cell itself.
   Raster<float> heights(w, h, std::numeric_limits<float>::quiet_NaN());
   double sum2 = 0.0, largest = 0.0;
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) {
-      const std::size_t k = static_cast<std::size_t>(y) * static_cast<std::size_t>(w) + static_cast<std::size_t>(x);
-      if (!source[k].allFinite() || !target[k].allFinite()) continue;
-      sum2 += (target[k] - (*fit)(source[k])).squaredNorm();
-      const Vec3 moved = epoch_from_reference(target[k]);
-      // Clamped to the grid of cell centres: a border cell's point may come back a hair outside.
-      const Eigen::Vector2d px = dsm.world_to_pixel(moved.head<2>());
-      const double there = dsm.height_at_pixel(
-          Eigen::Vector2d(std::clamp(px.x(), 0.0, w - 1.0), std::clamp(px.y(), 0.0, h - 1.0)));
-      if (std::isnan(there)) continue;
-      const double correction = moved.z() - there;
-      largest = std::max(largest, std::abs(correction));
-      heights(x, y) = static_cast<float>(source[k].z() + correction);
-    }
+  for (std::size_t i = 0; i < pairs.size(); ++i) {
+    const PointPair3 pair = pairs[i];
+    sum2 += (pair.target - (*fit)(pair.source)).squaredNorm();
+    const Vec3 moved = epoch_from_reference(pair.target);
+    // Clamped to the grid of cell centres: a border cell's point may come back a hair outside.
+    const Eigen::Vector2d px = dsm.world_to_pixel(moved.head<2>());
+    const double there =
+        dsm.height_at_pixel(Eigen::Vector2d(std::clamp(px.x(), 0.0, w - 1.0), std::clamp(px.y(), 0.0, h - 1.0)));
+    if (std::isnan(there)) continue;
+    const double correction = moved.z() - there;
+    largest = std::max(largest, std::abs(correction));
+    const std::size_t k = cells[i];
+    heights(static_cast<int>(k % static_cast<std::size_t>(w)), static_cast<int>(k / static_cast<std::size_t>(w))) =
+        static_cast<float>(pair.source.z() + correction);
+  }
   out.rms_nonrigid = std::sqrt(sum2 / static_cast<double>(pairs.size()));
   out.max_height_correction = largest;
   out.dsm = Dsm(std::move(heights), dsm.transform(), dsm.crs());
