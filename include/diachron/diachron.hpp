@@ -59,6 +59,7 @@
 #include <diachron/terrain/local_affine.hpp>
 #include <diachron/terrain/local_relief.hpp>
 #include <diachron/terrain/masked_ncc.hpp>
+#include <diachron/terrain/model_dsm_agreement.hpp>
 #include <diachron/terrain/ray_dsm_intersection.hpp>
 #include <diachron/terrain/relief_image.hpp>
 #include <diachron/terrain/surface_alignment.hpp>
@@ -100,6 +101,7 @@
 #include <diachron/synth/scene.hpp>
 #include <diachron/synth/terrain.hpp>
 #include <diachron/synth/texture.hpp>
+#include <diachron/pipeline/epoch_placement.hpp>
 #include <diachron/pipeline/overlapping_pairs.hpp>
 #include <diachron/pipeline/precise_matching.hpp>
 #include <diachron/pipeline/rough_coregistration.hpp>
