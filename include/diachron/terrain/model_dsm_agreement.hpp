@@ -24,6 +24,7 @@
 
 #include <diachron/core/error.hpp>
 #include <diachron/terrain/dsm.hpp>
+#include <diachron/terrain/surface_alignment.hpp>  // detail::median_in_place, robust_sigma_in_place
 
 namespace diachron {
 
@@ -93,19 +94,6 @@ struct ModelDsmAgreement {
   bool best_on_edge = false;
 };
 
-namespace detail {
-
-inline double model_dsm_median_of(std::vector<double>& v) {
-  if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
-  const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
-  std::nth_element(v.begin(), mid, v.end());
-  double m = *mid;
-  if (v.size() % 2 == 0) m = 0.5 * (m + *std::max_element(v.begin(), mid));
-  return m;
-}
-
-}  // namespace detail
-
 /// Compares the model points `points` (the DSM's frame) with `dsm`; `gsd` is the images' ground
 /// sampling distance in DSM units (0 when unknown: the DSM's cell alone sets the tolerance).
 /// Throws diachron::Error on an empty DSM, non-finite points or GSD, or bad options.
@@ -143,9 +131,9 @@ inline ModelDsmAgreement model_dsm_agreement(const std::vector<Eigen::Vector3d>&
     return out;
   }
   std::vector<double> work = dz;
-  out.median_dz = detail::model_dsm_median_of(work);
-  for (std::size_t k = 0; k < dz.size(); ++k) work[k] = std::abs(dz[k] - out.median_dz);
-  out.nmad_dz = 1.4826 * detail::model_dsm_median_of(work);
+  out.median_dz = detail::median_in_place(work);
+  work = dz;
+  out.nmad_dz = detail::robust_sigma_in_place(work);  // leaves |dZ - median| in `work`
   // The share within the tolerance of the median: a model offset as a whole, but otherwise on the
   // surface, is a milder fault than one that misses it point by point.
   double centred_share = 0.0;
@@ -161,9 +149,9 @@ inline ModelDsmAgreement model_dsm_agreement(const std::vector<Eigen::Vector3d>&
       heights(i * cell, j * cell);
       if (dz.size() < options.min_points) continue;
       work = dz;
-      const double median = detail::model_dsm_median_of(work);
-      for (std::size_t k = 0; k < dz.size(); ++k) work[k] = std::abs(dz[k] - median);
-      const double nmad = 1.4826 * detail::model_dsm_median_of(work);
+      const double median = detail::median_in_place(work);
+      work = dz;
+      const double nmad = detail::robust_sigma_in_place(work);
       // Ties (flat ground) go to the smaller shift.
       const bool better = nmad < out.best_nmad_dz - 1e-12 ||
                           (nmad <= out.best_nmad_dz + 1e-12 && std::hypot(i, j) * cell < out.best_offset.head<2>().norm());
