@@ -1,7 +1,8 @@
 #pragma once
 /// @file
-/// Epoch folders, the exchange format of the pipeline (docs/architecture.md): a COLMAP text model
-/// (cameras.txt, images.txt, points3D.txt), the images under images/ and the epoch's DSM as
+/// Epoch folders, the exchange format of the pipeline (docs/architecture.md): a COLMAP model, text
+/// (cameras.txt, images.txt, points3D.txt) or binary (cameras.bin, images.bin, points3D.bin, as
+/// COLMAP writes it; io/colmap_model.hpp), the images under images/ and the epoch's DSM as
 /// dsm.tif, in the model's frame; or an orthophoto epoch: `ortho.tif` (any GDAL raster, grey or
 /// colour, with a north-up geotransform) and `dsm.tif` in the same CRS (any grid), the usual modern
 /// reference (a national orthophoto and its DEM). An orthophoto is cut into tiles, each a
@@ -28,6 +29,7 @@
 #include <diachron/camera/ortho_frame.hpp>
 #include <diachron/core/error.hpp>
 #include <diachron/core/raster.hpp>
+#include <diachron/io/colmap_model.hpp>
 #include <diachron/io/colmap_text.hpp>
 #include <diachron/io/folders.hpp>
 #include <diachron/io/geotiff.hpp>
@@ -104,6 +106,8 @@ inline std::vector<std::pair<int, int>> ortho_tile_spans(int size, const OrthoTi
 struct EpochFolder {
   std::string directory;
   ColmapModel model;
+  /// The form the model was read in (binary when the folder holds both and they agree).
+  ColmapFormat model_format = ColmapFormat::text;
   std::vector<EpochImage> images;
   Dsm dsm;
   /// The orthophoto of an orthophoto epoch (`<directory>/ortho.tif`), empty for a photo epoch.
@@ -161,7 +165,8 @@ struct EpochFolder {
     const Camera<FraserAffine>& camera = images[i].frame.camera();
     DIACHRON_CHECK(raster.width() == camera.width() && raster.height() == camera.height(),
                    what << " '" << path << "' is " << raster.width() << " x " << raster.height() << " px but "
-                        << whose << " in " << directory << "/cameras.txt is " << camera.width() << " x "
+                        << whose << " in " << directory << "/" << colmap_file_name("cameras", model_format) << " is "
+                        << camera.width() << " x "
                         << camera.height());
     return raster;
   }
@@ -209,30 +214,37 @@ inline EpochFolder read_ortho_epoch_folder(const std::string& directory, const G
 
 }  // namespace detail
 
-/// Reads the epoch folder `directory`: `cameras.txt`, `images.txt`, `points3D.txt`, `dsm.tif`, and
-/// checks that every image of images.txt exists under `images/`; notes each image's mask where it
+/// Reads the epoch folder `directory`: its COLMAP model (`cameras.txt`, `images.txt`, `points3D.txt`,
+/// or the `.bin` files; both only when they agree: read_colmap_model()), `dsm.tif`, and checks that
+/// every image of the model exists under `images/`; notes each image's mask where it
 /// exists (EpochImage::mask_path, read on demand by EpochFolder::load_mask). A folder with
 /// `ortho.tif` and no model is an orthophoto epoch: its tiles (`tiles`) become its images, named
 /// `ortho_x<X>_y<Y>.tif` after their top-left pixel in the orthophoto. Throws diachron::Error
-/// naming the file (and line) when the folder, a file or an image is missing, a file cannot be
-/// parsed, a camera model has no diachron counterpart, the DSM has no valid cell, the folder holds
-/// both a model and an orthophoto, or the orthophoto has no geotransform, a rotated one, or another
-/// CRS than its DSM.
+/// naming the file (and line, or byte for a binary model) when the folder, a file or an image is
+/// missing, a file cannot be parsed, a camera model has no diachron counterpart, the DSM has no
+/// valid cell, the folder holds both a model and an orthophoto, or a text and a binary model that
+/// differ, or the orthophoto has no geotransform, a rotated one, or another CRS than its DSM.
 inline EpochFolder read_epoch_folder(const std::string& directory, const GeoTiffReadOptions& dsm_options = {},
                                      const OrthoTileOptions& tiles = {}) {
   DIACHRON_CHECK(!directory.empty() && is_folder(directory),
                  "epoch folder '" << directory << "' does not exist or is not a folder");
   tiles.check();
   const bool has_ortho = is_regular_file(directory + "/ortho.tif");
-  const bool has_model = is_regular_file(directory + "/images.txt") || is_regular_file(directory + "/cameras.txt");
+  const bool has_model = is_regular_file(directory + "/images.txt") || is_regular_file(directory + "/cameras.txt") ||
+                         has_colmap_model(directory, ColmapFormat::binary);
   DIACHRON_CHECK(!(has_ortho && has_model), "epoch folder '" << directory
                                                              << "' holds both a COLMAP model and ortho.tif; an epoch "
                                                                 "is one or the other: move one of them away");
   if (has_ortho) return detail::read_ortho_epoch_folder(directory, dsm_options, tiles);
   EpochFolder out;
   out.directory = directory;
-  out.model = read_colmap_text(directory);
-  DIACHRON_CHECK(!out.model.images.empty(), "epoch folder '" << directory << "': images.txt lists no image");
+  // A folder with no model file at all keeps the text reader's message (cameras.txt cannot be opened).
+  if (has_colmap_model(directory, ColmapFormat::binary))
+    out.model = read_colmap_model(directory, &out.model_format);
+  else
+    out.model = read_colmap_text(directory);
+  const std::string images_file = colmap_file_name("images", out.model_format);
+  DIACHRON_CHECK(!out.model.images.empty(), "epoch folder '" << directory << "': " << images_file << " lists no image");
   out.dsm = read_geotiff_dsm(directory + "/dsm.tif", dsm_options);
   DIACHRON_CHECK(out.dsm.statistics().count > 0, "epoch folder '" << directory << "': dsm.tif has no valid cell");
   for (const auto& [id, colmap_image] : out.model.images) {
@@ -241,8 +253,8 @@ inline EpochFolder read_epoch_folder(const std::string& directory, const GeoTiff
     image.name = colmap_image.name;
     image.path = directory + "/images/" + colmap_image.name;
     DIACHRON_CHECK(is_regular_file(image.path),
-                   "epoch folder '" << directory << "': image '" << colmap_image.name << "' (id " << id
-                                    << " in images.txt) is missing from images/");
+                   "epoch folder '" << directory << "': image '" << colmap_image.name << "' (id " << id << " in "
+                                    << images_file << ") is missing from images/");
     const std::string colmap_mask = directory + "/masks/" + colmap_image.name + ".png";
     const std::size_t dot = image.path.find_last_of('.');
     const std::size_t slash = image.path.find_last_of('/');
