@@ -5,7 +5,8 @@
 /// evaluation and the synthetic scene generator. Needs Eigen, nanoflann and the standard library
 /// only (target diachron::core). The OpenCV adapters (diachron/vision/...) and the I/O
 /// (diachron/io/..., diachron/synth/scene_io.hpp; GDAL for GeoTIFFs and images, while
-/// io/colmap_text.hpp, io/homol.hpp and io/helmert_json.hpp need only the standard library and Eigen)
+/// io/colmap_text.hpp, io/colmap_binary.hpp, io/colmap_model.hpp, io/micmac_orientation.hpp,
+/// io/xml_lite.hpp, io/homol.hpp and io/helmert_json.hpp need only the standard library and Eigen)
 /// and the Ceres bundle adjustment (diachron/adjustment/... but its track builder and
 /// triangulation, and diachron/pipeline/combined_adjustment.hpp and combined_epochs.hpp; target
 /// diachron::adjustment) are included separately, so that this header never pulls them.
