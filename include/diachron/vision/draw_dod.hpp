@@ -14,8 +14,6 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
-#include <cstdio>
-#include <limits>
 #include <string>
 #include <vector>
 
@@ -26,6 +24,7 @@
 #include <diachron/core/raster.hpp>
 #include <diachron/eval/dod_map.hpp>
 #include <diachron/terrain/dsm.hpp>
+#include <diachron/vision/draw_legend.hpp>
 #include <diachron/vision/image.hpp>
 
 namespace diachron {
@@ -121,50 +120,18 @@ struct DodPictureLayout {
 
 namespace detail {
 
-inline constexpr int kDodMargin = 12;
-inline constexpr int kDodLineHeight = 24;
-inline constexpr double kDodFontScale = 0.55;
-inline constexpr int kDodBarGap = 16, kDodBarWidth = 22, kDodLabelWidth = 92;
 inline constexpr int kDodFooterHeight = 44;
 
-// The largest of 1, 2, 5 x 10^k not above `v` (> 0).
-inline double dod_nice_floor(double v) {
-  const double p = std::pow(10.0, std::floor(std::log10(v)));
-  for (const double m : {5.0, 2.0, 1.0})
-    if (m * p <= v * (1.0 + 1e-9)) return m * p;
-  return p;
-}
-
-// Decimals that show a multiple of `step` exactly (step from dod_nice_floor).
-inline int dod_decimals(double step) { return std::max(0, static_cast<int>(-std::floor(std::log10(step) + 1e-9))); }
-
-inline std::string dod_format(const char* format, double v) {
-  char buffer[64];
-  std::snprintf(buffer, sizeof buffer, format, v);
-  return buffer;
-}
-
-inline std::string dod_fixed(double v, int decimals, bool sign) {
-  char format[16];
-  std::snprintf(format, sizeof format, sign ? "%%+.%df" : "%%.%df", decimals);
-  return dod_format(format, v);
-}
-
 inline std::string dod_length(double ground) {
-  if (ground >= 1000.0) return dod_fixed(ground / 1000.0, dod_decimals(ground / 1000.0), false) + " km";
-  return dod_fixed(ground, dod_decimals(ground), false) + " m";
+  if (ground >= 1000.0) return legend_fixed(ground / 1000.0, legend_decimals(ground / 1000.0)) + " km";
+  return legend_fixed(ground, legend_decimals(ground)) + " m";
 }
 
 inline std::string dod_statistics_line(const char* what, const ErrorStatistics& s, std::size_t cells) {
   if (s.count == 0) return std::string(what) + ": no valid cell";
   const double share = 100.0 * static_cast<double>(s.count) / static_cast<double>(std::max<std::size_t>(cells, 1));
-  return std::string(what) + ": median " + dod_fixed(s.median, 3, true) + " m, NMAD " + dod_fixed(s.nmad, 3, false) +
-         " m, n = " + std::to_string(s.count) + " (" + dod_fixed(share, 1, false) + " % of the map)";
-}
-
-inline int dod_text_width(const std::string& text, int thickness) {
-  int baseline = 0;
-  return cv::getTextSize(text, cv::FONT_HERSHEY_SIMPLEX, kDodFontScale, thickness, &baseline).width;
+  return std::string(what) + ": median " + legend_fixed(s.median, 3, true) + " m, NMAD " + legend_fixed(s.nmad, 3, false) +
+         " m, n = " + std::to_string(s.count) + " (" + legend_fixed(share, 1, false) + " % of the map)";
 }
 
 }  // namespace detail
@@ -184,18 +151,18 @@ inline DodPictureLayout dod_picture_layout(const Dsm& dz, const DrawDodOptions& 
     l.header.push_back(dod_statistics_line("all cells", s.all, s.num_cells));
     if (options.stable != nullptr) l.header.push_back(dod_statistics_line("stable cells", s.stable, s.num_cells));
   }
-  l.header.push_back("colour: +-" + dod_fixed(l.range_m, l.range_m < 1.0 ? 3 : 2, false) + " m" +
+  l.header.push_back("colour: +-" + legend_fixed(l.range_m, l.range_m < 1.0 ? 3 : 2, false) + " m" +
                      (options.range_m > 0.0 ? std::string(" (fixed)")
-                                            : " (" + dod_fixed(options.percentile, 0, false) + "th percentile of |dZ|)") +
+                                            : " (" + legend_fixed(options.percentile, 0, false) + "th percentile of |dZ|)") +
                      ", red: higher than the reference");
-  const int header_height = static_cast<int>(l.header.size()) * kDodLineHeight + 6;
-  const int legend_width = kDodBarGap + kDodBarWidth + kDodLabelWidth;
+  const int header_height = static_cast<int>(l.header.size()) * kLegendLineHeight + 6;
+  const int legend_width = kLegendBarGap + kLegendBarWidth + kLegendLabelWidth;
 
   // Map size: cells keep their ground aspect; enlarged by an integer factor when small, shrunk to fit.
   const Eigen::Vector2d cell = dz.cell_size();
   const double w = dz.width(), h = dz.height() * (cell.y() / cell.x());
-  const double room_w = options.max_side_px - 2 * kDodMargin - legend_width;
-  const double room_h = options.max_side_px - 2 * kDodMargin - header_height - kDodFooterHeight;
+  const double room_w = options.max_side_px - 2 * kLegendMargin - legend_width;
+  const double room_h = options.max_side_px - 2 * kLegendMargin - header_height - kDodFooterHeight;
   const double fit = std::min(room_w / w, room_h / h);
   double factor = std::min(1.0, fit);
   if (std::max(w, h) < options.min_map_side_px) {
@@ -204,23 +171,23 @@ inline DodPictureLayout dod_picture_layout(const Dsm& dz, const DrawDodOptions& 
   }
   const int map_w = std::max(1, static_cast<int>(std::lround(w * factor)));
   const int map_h = std::max(1, static_cast<int>(std::lround(h * factor)));
-  l.map = cv::Rect(kDodMargin, kDodMargin + header_height, map_w, map_h);
+  l.map = cv::Rect(kLegendMargin, kLegendMargin + header_height, map_w, map_h);
   l.px_per_cell_x = static_cast<double>(map_w) / dz.width();
   l.px_per_cell_y = static_cast<double>(map_h) / dz.height();
 
   const int bar_h = std::clamp(map_h, 200, 500);
-  l.colour_bar = cv::Rect(l.map.x + map_w + kDodBarGap, l.map.y, kDodBarWidth, bar_h);
+  l.colour_bar = cv::Rect(l.map.x + map_w + kLegendBarGap, l.map.y, kLegendBarWidth, bar_h);
   // Scale bar: a round length near a quarter of the map's width.
   const double ground_per_px = cell.x() / l.px_per_cell_x;
-  l.scale_bar_ground = dod_nice_floor(0.25 * map_w * ground_per_px);
+  l.scale_bar_ground = legend_round_down(0.25 * map_w * ground_per_px);
   const int bar_px = std::max(1, static_cast<int>(std::lround(l.scale_bar_ground / ground_per_px)));
   const int below = l.map.y + std::max(map_h, bar_h + 40);  // the no-data swatch sits under the colour bar
   l.scale_bar = cv::Rect(l.map.x, below + 14, bar_px, 4);
 
-  int width = l.colour_bar.x + kDodBarWidth + kDodLabelWidth + kDodMargin;
+  int width = l.colour_bar.x + kLegendBarWidth + kLegendLabelWidth + kLegendMargin;
   for (std::size_t i = 0; i < l.header.size(); ++i)
-    width = std::max(width, 2 * kDodMargin + dod_text_width(l.header[i], i == 0 && !options.title.empty() ? 2 : 1));
-  l.picture = cv::Size(width, below + kDodFooterHeight + kDodMargin);
+    width = std::max(width, 2 * kLegendMargin + legend_text_width(l.header[i], i == 0 && !options.title.empty() ? 2 : 1));
+  l.picture = cv::Size(width, below + kDodFooterHeight + kLegendMargin);
   return l;
 }
 
@@ -246,45 +213,15 @@ inline cv::Mat draw_dod(const Dsm& dz, const DrawDodOptions& options = {}) {
   cv::resize(cells, map_view, l.map.size(), 0.0, 0.0, enlarge ? cv::INTER_NEAREST : cv::INTER_AREA);
   cv::rectangle(canvas, cv::Rect(l.map.x - 1, l.map.y - 1, l.map.width + 2, l.map.height + 2), black, 1);
 
-  // Header lines.
-  for (std::size_t i = 0; i < l.header.size(); ++i) {
-    const bool title = i == 0 && !options.title.empty();
-    cv::putText(canvas, l.header[i], cv::Point(kDodMargin, kDodMargin + 17 + static_cast<int>(i) * kDodLineHeight),
-                cv::FONT_HERSHEY_SIMPLEX, kDodFontScale, black, title ? 2 : 1, cv::LINE_AA);
-  }
-
-  // Colour bar, +range at the top, with ticks at round values.
+  // Header lines, the colour bar (+range at the top, ticks at round values) with the no-data swatch
+  // under it, the scale bar.
+  draw_legend_lines(canvas, l.header, cv::Point(kLegendMargin, kLegendMargin), !options.title.empty());
   const cv::Rect& bar = l.colour_bar;
-  for (int j = 0; j < bar.height; ++j) {
-    const double v = l.range_m * (1.0 - 2.0 * (j + 0.5) / bar.height);
-    canvas(cv::Rect(bar.x, bar.y + j, bar.width, 1)).setTo(cv::Scalar(dod_colour(v, l.range_m)));
-  }
-  cv::rectangle(canvas, cv::Rect(bar.x - 1, bar.y - 1, bar.width + 2, bar.height + 2), black, 1);
-  const double step = dod_nice_floor(l.range_m / 2.0);
-  const int decimals = dod_decimals(step);
-  const int ticks = static_cast<int>(std::floor(l.range_m / step + 1e-9));
-  for (int k = -ticks; k <= ticks; ++k) {
-    const double v = k * step;
-    const int ty = bar.y + static_cast<int>(std::lround((1.0 - v / l.range_m) / 2.0 * bar.height));
-    cv::line(canvas, cv::Point(bar.x + bar.width, ty), cv::Point(bar.x + bar.width + 5, ty), black, 1);
-    const std::string label = k == 0 ? std::string("0") : dod_fixed(v, decimals, true);
-    cv::putText(canvas, label + (k == ticks ? " m" : ""), cv::Point(bar.x + bar.width + 8, ty + 5),
-                cv::FONT_HERSHEY_SIMPLEX, 0.45, black, 1, cv::LINE_AA);
-  }
-  const cv::Rect swatch(bar.x, bar.y + bar.height + 14, bar.width, 14);
-  canvas(swatch).setTo(cv::Scalar(kDodNoDataColour));
-  cv::rectangle(canvas, cv::Rect(swatch.x - 1, swatch.y - 1, swatch.width + 2, swatch.height + 2), black, 1);
-  cv::putText(canvas, "no data", cv::Point(swatch.x + swatch.width + 6, swatch.y + 12), cv::FONT_HERSHEY_SIMPLEX, 0.45,
-              black, 1, cv::LINE_AA);
-
-  // Scale bar with end ticks and its length.
-  const cv::Rect& sb = l.scale_bar;
-  canvas(sb).setTo(black);
-  cv::line(canvas, cv::Point(sb.x, sb.y - 5), cv::Point(sb.x, sb.y + sb.height + 4), black, 1);
-  cv::line(canvas, cv::Point(sb.x + sb.width - 1, sb.y - 5), cv::Point(sb.x + sb.width - 1, sb.y + sb.height + 4),
-           black, 1);
-  cv::putText(canvas, dod_length(l.scale_bar_ground), cv::Point(sb.x + sb.width + 8, sb.y + 6),
-              cv::FONT_HERSHEY_SIMPLEX, 0.45, black, 1, cv::LINE_AA);
+  draw_legend_colour_bar(
+      canvas, bar, -l.range_m, l.range_m, [&](double v) { return dod_colour(v, l.range_m); }, "m", true);
+  draw_legend_swatch(canvas, cv::Rect(bar.x, bar.y + bar.height + 14, bar.width, 14), cv::Scalar(kDodNoDataColour),
+                     "no data");
+  draw_legend_scale_bar(canvas, l.scale_bar, dod_length(l.scale_bar_ground));
   return canvas;
 }
 
