@@ -5,7 +5,8 @@
 ///
 ///   make_scene OUT_DIR [--preset plain|decades] [--seed N] [--dem PATH] [--images-per-epoch RxC]
 ///              [--image-size WxH] [--epochs N] [--check-points N] [--dome M] [--offset X,Y]
-///              [--scan-frame PX] [--control-points N] [--ortho-reference] [--threads N]
+///              [--scan-frame PX] [--control-points N] [--ortho-reference] [--model-offset NAME=DX,DY,DZ]
+///              [--threads N]
 ///
 /// `--preset decades` starts from SceneOptions::decades_apart(N) (`--epochs N`, 2 to 5, default 2)
 /// and the other flags apply on top of it, so that `make_scene OUT --preset decades --seed S` writes
@@ -13,6 +14,7 @@
 /// then delivers the last epoch as a true orthophoto and its true surface (synth/ortho_reference.hpp)
 /// instead of images and a model.
 
+#include <algorithm>
 #include <chrono>
 #include <ctime>
 #include <cstdint>
@@ -27,6 +29,7 @@
 #include <utility>
 #include <vector>
 
+#include <diachron/io/colmap_text.hpp>
 #include <diachron/io/dsm_reproject.hpp>
 #include <diachron/io/folders.hpp>
 #include <diachron/io/geotiff.hpp>
@@ -65,6 +68,11 @@ constexpr const char* kUsage =
     "                           GSD, north-up in its frame, over its images' footprints) and dsm.tif, its\n"
     "                           true surface in that frame; no images nor COLMAP model (older epochs as\n"
     "                           without the flag)\n"
+    "  --model-offset NAME=DX,DY,DZ  move epoch NAME's SfM model (its cameras' centres in images.txt and its\n"
+    "                           points in points3D.txt) by DX, DY, DZ epoch units and leave its DSM where\n"
+    "                           it is: a model and a DSM that disagree, as a COLMAP model poorly aligned\n"
+    "                           with model_aligner is (match_epochs must refuse it); the truth is not\n"
+    "                           moved (default: none)\n"
     "  --threads N              worker threads, 0 = all cores (default 0)\n";
 
 // Flags that are not given leave the preset's value alone.
@@ -80,6 +88,7 @@ struct Arguments {
   int scan_frame_px = 0;
   int control_points = 0;
   bool ortho_reference = false;
+  std::optional<std::pair<std::string, diachron::Vec3>> model_offset;  // --model-offset NAME=DX,DY,DZ
   std::size_t threads = 0;
 };
 
@@ -164,6 +173,13 @@ Arguments parse(int argc, char** argv) {
       } else if (arg == "--control-points") {
         a.control_points = parse_number<int>(value, arg);
         if (a.control_points < 0) usage_error("--control-points must be >= 0");
+      } else if (arg == "--model-offset") {
+        const auto [name, rest] = split(value, '=', arg);
+        const auto [dx, yz] = split(rest, ',', arg);
+        const auto [dy, dz] = split(yz, ',', arg);
+        const diachron::Vec3 d(parse_number<double>(dx, arg), parse_number<double>(dy, arg), parse_number<double>(dz, arg));
+        if (name.empty() || !d.allFinite()) usage_error("--model-offset wants NAME=DX,DY,DZ, finite numbers");
+        a.model_offset = std::make_pair(name, d);
       } else if (arg == "--threads") {
         a.threads = static_cast<std::size_t>(parse_number<std::uint64_t>(value, arg));
       } else {
@@ -305,7 +321,25 @@ int main(int argc, char** argv) {
           masks.emplace_back(scene.epochs[e].name + "/masks/" + image.name + ".png.png",
                              diachron::draw_scan_frame(image.pixels, frame));
         }
+    if (args.model_offset) {
+      const bool known = std::any_of(scene.epochs.begin(), scene.epochs.end(), [&](const diachron::SyntheticEpoch& e) {
+        return e.name == args.model_offset->first && !e.orthophoto;
+      });
+      if (!known) usage_error("--model-offset: no epoch with a model is named '" + args.model_offset->first + "'");
+    }
     diachron::write_scene(scene, args.out_dir);
+    if (args.model_offset) {
+      // The written model is moved, not the scene: the truth keeps the epoch where it is.
+      const std::string dir = args.out_dir + "/" + args.model_offset->first;
+      diachron::ColmapModel model = diachron::read_colmap_text(dir);
+      const diachron::Vec3& d = args.model_offset->second;
+      for (auto& [id, image] : model.images)
+        image.pose = diachron::Pose(image.pose.cam_from_world_rotation(), image.pose.centre() + d);
+      for (auto& [id, point] : model.points3d) point.xyz += d;
+      diachron::write_colmap_text(model, dir);
+      std::printf("model of %s moved by (%g, %g, %g) against its DSM (--model-offset)\n",
+                  args.model_offset->first.c_str(), d.x(), d.y(), d.z());
+    }
     for (const auto& [name, mask] : masks) {
       const std::string path = args.out_dir + "/" + name;
       diachron::make_folders(path.substr(0, path.rfind('/')), "make_scene");

@@ -13,9 +13,23 @@ namespace diachron {
 
 /// Thrown for invalid input at an API boundary: the message says what is wrong and where.
 /// Derives from std::invalid_argument so callers that already catch that keep working.
+/// what() is for developers: "diachron: <message> [in <function>: <condition>]" from
+/// DIACHRON_CHECK. message() is for the people a program shows it to: the message alone, without
+/// the "diachron: " prefix nor the internal condition.
 class Error : public std::invalid_argument {
  public:
-  explicit Error(const std::string& what) : std::invalid_argument(what) {}
+  explicit Error(const std::string& what) : std::invalid_argument(what), message_(strip_prefix(what)) {}
+  Error(const std::string& what, const std::string& message) : std::invalid_argument(what), message_(message) {}
+
+  /// The message without the library's prefix and internal condition.
+  const std::string& message() const noexcept { return message_; }
+
+ private:
+  static std::string strip_prefix(const std::string& what) {
+    const std::string prefix = "diachron: ";
+    return what.compare(0, prefix.size(), prefix) == 0 ? what.substr(prefix.size()) : what;
+  }
+  std::string message_;
 };
 
 namespace detail {
@@ -24,7 +38,7 @@ namespace detail {
                                              const std::string& message) {
   std::ostringstream out;
   out << "diachron: " << message << " [in " << function << ": " << condition << "]";
-  throw Error(out.str());
+  throw Error(out.str(), message);
 }
 
 }  // namespace detail
