@@ -5,49 +5,56 @@
 //
 //   match_epochs EPOCH_DIR EPOCH_DIR [EPOCH_DIR ...] --out DIR [options]
 //
-// Each epoch folder holds a COLMAP text model (cameras.txt, images.txt, points3D.txt), images/ and
-// dsm.tif in the model's frame (what make_scene writes), and optionally masks/<image name>.png (COLMAP's
-// masks) or images/<stem>_Masq.tif (MicMac's): 0 where no match may be, e.g. the scan's frame and
-// fiducial marks; or it is an orthophoto epoch: ortho.tif (north-up geotransform) and dsm.tif in the
-// same CRS, cut into tiles (io/epoch_folder.hpp). An epoch is named by its folder ("/data/1954" ->
-// 1954). The reference is the last epoch given, or --reference NAME; every other epoch is free. The
-// order of the others does not matter: they are taken in name order. Each free epoch is
-// co-registered with the reference from the DSMs (--rough auto), or through another free epoch
-// already placed when that fails, or by a given transform (--rough identity|FILE, per epoch with
-// NAME=). Every two epochs' overlapping image pairs are matched, the master image of a pair from
-// the epoch first in that order (a free epoch before the reference).
-// Writes
+// Each epoch folder holds a COLMAP model (text: cameras.txt, images.txt, points3D.txt; or COLMAP's
+// binary .bin files), images/ and dsm.tif in the model's frame (what make_scene writes), and
+// optionally masks/<image name>.png (COLMAP's masks) or images/<stem>_Masq.tif (MicMac's): 0 where
+// no match may be, e.g. the scan's frame and fiducial marks; or it is an orthophoto epoch: ortho.tif
+// (north-up geotransform) and dsm.tif in the same CRS, cut into tiles (io/epoch_folder.hpp). An
+// epoch is named by its folder ("/data/1954" -> 1954). The reference is the last epoch given, or
+// --reference NAME; every other epoch is free, taken in name order.
+//
+// Before any work, every option is parsed strictly (CLI11) and each epoch's model, DSM and image
+// files are checked against each other (io/epoch_folder_check.hpp): a model that disagrees grossly
+// with its DSM, or images that are unreadable or not of their camera's size, refuse the run (exit
+// 1, with the figures and a remedy); a mild disagreement is a warning that lowers the trust.
+// Each free epoch is co-registered with the reference from the DSMs (--rough auto), or through
+// another free epoch already placed when that fails, or by a given transform (--rough
+// identity|FILE, per epoch with NAME=). Every two epochs' overlapping image pairs are matched.
+//
+// The outputs are written into a fresh folder inside --out and moved into place when the run ends
+// (exit 0 or 2): a rerun never leaves an earlier run's tie points beside its report; a run stopped
+// by an error leaves --out as it was. --out must be new or empty, or --overwrite replaces an earlier
+// run's outputs. Writes
 //   DIR/rough_helmert_<epoch>.json  per free epoch, its rough co-registration, X_ref = scale R X + t
-//                                   (helmert.json's keys)
 //   DIR/Homol/              final inter-epoch tie points of every pair, MicMac Homol (both directions;
 //                           names as in images.txt, unless a name has a folder or two epochs use it: then
-//                           every name is prefixed e<k>_, k the epoch's place in that order, and
-//                           DIR/homol_names.txt lists them)
-//   DIR/report.json         per epoch (its co-registration), per epoch pair (pairs, matches), timings
-//   DIR/pairs/<a>--<b>.png  each pair's final matches (Homol names)
-//   DIR/dod/<epoch>_rough.tif, .png  each free epoch's DoD (difference of DSMs, eval/dod_map.hpp) with
-//                           the reference, its DSM moved by the rough co-registration: float GeoTIFF on
-//                           the reference's grid, and a picture with legend and scale; report.json's
-//                           "dod" gives mu, sigma, |mu|, median and NMAD over all cells and stable ones
-// and with --adjust (the combined adjustment, pipeline/combined_epochs.hpp: the reference fixed,
-// every free epoch's poses, Fraser camera and affine parts free, intra-epoch tie points from
-// points3D.txt and the inter-epoch ones above; images whose cameras hold the same values share one,
-// or all of an epoch's with --one-camera; ground control points from --gcps FILE,
-// io/control_points.hpp), in the reference's frame:
+//                           every name is prefixed e<k>_, and DIR/homol_names.txt lists them)
+//   DIR/report.json         the run (command line, version, threads, time per stage), the trust of the
+//                           results and why, warnings, the input checks, per epoch and epoch pair
+//   DIR/pairs/<a>__<b>.jpg  each pair: the secondary warped onto the master, the matches as dots
+//   DIR/dod/<epoch>_rough.tif, .png  each free epoch's DoD with the reference after the rough
+//                           co-registration (eval/dod_map.hpp), report.json's "dod"
+// and with --adjust (the combined adjustment, pipeline/combined_epochs.hpp, in the reference's frame):
 //   DIR/adjusted/cameras.json, DIR/adjusted/<epoch>/  the adjusted orientation (io/adjusted_export.hpp)
-//   DIR/adjusted/residuals/<image>.png                 reprojection residuals of the free epochs' tie points
-//   DIR/dod/<epoch>.tif, .png, <epoch>_helmert.json     each free epoch's DoD after the adjustment, its DSM
-//                                                      placed by that similarity (eval/dsm_reintersection.hpp)
-//   the "adjustment" section of report.json (with each control point's error, and with
-//   --check-points FILE each free epoch's check-point errors after the rough co-registration and
-//   after it)
-// Progress on stderr. Exit status: 0 success, 2 no co-registration, no overlap, no match or no
-// adjustment (reason printed), 1 bad input (one line). The input folders are never written to. The
-// stages are pipeline/rough_coregistration.hpp, pipeline/overlapping_pairs.hpp and
-// pipeline/precise_matching.hpp; docs/precise-matching.md says how the defaults were chosen.
+//   DIR/adjusted/colmap/    all epochs in one COLMAP model with the tie points as points3D, images/
+//                           links (--colmap-format text|binary)
+//   DIR/adjusted/micmac/Ori-diachron/  the same as MicMac orientations (io/micmac_orientation.hpp)
+//   DIR/adjusted/residuals/<image>.png  reprojection residuals of the free epochs' tie points
+//   DIR/dod/<epoch>.tif, .png, <epoch>_helmert.json  each free epoch's DoD after the adjustment
+//   the "adjustment" section of report.json, and its grade (adjustment/adjustment_grade.hpp) in "trust"
+// Progress on stderr (lines when it is not a terminal). Exit status: 0 success, 2 no co-registration,
+// no overlap, no match or no adjustment (reason printed), 1 bad input. The input folders are never
+// written to.
 
 #include <algorithm>
+#include <charconv>
+#include <cerrno>
+#include <chrono>
 #include <cmath>
+#include <ctime>
+#include <filesystem>
+#include <thread>
+#include <type_traits>
 #include <cstdlib>
 #include <cstdint>
 #include <cstdio>
@@ -64,11 +71,15 @@
 #include <vector>
 
 #include <sys/stat.h>
+#include <unistd.h>
+
+#include <CLI/CLI.hpp>
 
 #include <diachron/core/progress.hpp>
 #include <diachron/eval/dod_map.hpp>
 #include <diachron/io/control_points.hpp>
 #include <diachron/io/epoch_folder.hpp>
+#include <diachron/io/epoch_folder_check.hpp>
 #include <diachron/io/folders.hpp>
 #include <diachron/io/geotiff.hpp>
 #include <diachron/io/helmert_json.hpp>
@@ -80,18 +91,21 @@
 #include <diachron/terrain/ray_dsm_intersection.hpp>
 #include <diachron/vision/akaze.hpp>
 #include <diachron/vision/draw_dod.hpp>
-#include <diachron/vision/draw_matches.hpp>
+#include <diachron/geometry/homography.hpp>
+#include <diachron/vision/draw_pair_overlay.hpp>
 #include <diachron/vision/extractor_pair_matcher.hpp>
 #include <diachron/vision/sift.hpp>
 #include <diachron/vision/xfeat.hpp>
 
 #include <opencv2/imgproc.hpp>
 #if DIACHRON_MATCH_EPOCHS_ADJUST
+#include <diachron/adjustment/adjustment_grade.hpp>
 #include <diachron/adjustment/triangulation.hpp>
 #include <diachron/eval/check_points.hpp>
 #include <diachron/eval/distortion_precision.hpp>
 #include <diachron/eval/dsm_reintersection.hpp>
 #include <diachron/io/adjusted_export.hpp>
+#include <diachron/io/micmac_orientation.hpp>
 #include <diachron/pipeline/combined_epochs.hpp>
 #include <diachron/pipeline/orthophoto_reference.hpp>
 #include <diachron/vision/draw_residuals.hpp>
@@ -102,87 +116,42 @@ namespace {
 
 using namespace diachron;
 
-const char* kUsage =
-    "usage: match_epochs EPOCH_DIR EPOCH_DIR [EPOCH_DIR ...] --out DIR [options]\n"
-    "  two epochs or more, each named by its folder; the last given is the reference (--reference),\n"
-    "  the order of the others does not matter. Each EPOCH_DIR: cameras.txt images.txt points3D.txt\n"
-    "  images/ dsm.tif, optionally masks/<image name>.png\n"
-    "  or images/<stem>_Masq.tif (0 where no match may be: the scan's frame, fiducial marks, clouds); or an\n"
-    "  orthophoto epoch: ortho.tif (grey or colour, north-up geotransform) and dsm.tif in the same CRS,\n"
-    "  matched in tiles of up to 1536 px named ortho_x<X>_y<Y>.tif after their top-left orthophoto pixel\n"
-    "  --reference NAME                       the reference epoch, by its folder's name (default: the\n"
-    "                                         last given); every other epoch is moved onto it\n"
-    "  --rough [NAME=]auto|identity|FILE      a free epoch -> the reference: co-registered from the\n"
-    "                                         DSMs (auto, default; through another free epoch when\n"
-    "                                         that fails), the identity (in one frame already: GNSS,\n"
-    "                                         GCPs, a previous run), or a helmert.json FILE as\n"
-    "                                         rough_coregistration writes it; for every free epoch, or\n"
-    "                                         for epoch NAME (repeatable)\n"
-    "  --method correlation|patch|guided      tentative matches: interest points correlated around their\n"
-    "                                         DSM + Helmert prediction (default), one-to-one transfer-\n"
-    "                                         guided tiles, or keypoints guided by DSM + Helmert\n"
-    "  --measure orientation|gradient|intensity  correlation's similarity (default orientation)\n"
-    "  --cell PX                              correlation: one master point per PX x PX cell (default 6,\n"
-    "                                         coarser on images of more than 60000 such cells: 12 on\n"
-    "                                         3200 x 2400 px; time per pair grows as 1 / PX^2)\n"
-    "  --max-points N                         correlation: the cell grows from 6 px on images of more\n"
-    "                                         than N cells (default 60000, about 1600 x 1200 px at 6 px)\n"
-    "  --matcher sift|rootsift|akaze|xfeat    patch/guided features (default rootsift; guided:\n"
-    "                                         sift|rootsift|xfeat)\n"
-    "  --model PATH                           XFeat ONNX file (with --matcher xfeat)\n"
-    "  --fallback on|off                      dense correlation search of the DSMs when the features\n"
-    "                                         find no co-registration (default on; its answers are\n"
-    "                                         graded low trust; off makes failures fast)\n"
-    "  --nodata V                             also treat DSM heights equal to V as holes (a dsm.tif\n"
-    "                                         without a nodata tag, e.g. -9999)\n"
-    "  --min-overlap F                        least overlap of a pair, share of the smaller footprint\n"
-    "                                         (default 0.1)\n"
-    "  --ncc-threshold T                      least NCC of a kept match (default 0.6, MicMac's; the\n"
-    "                                         correlation method runs no intensity NCC)\n"
-    "  --no-refine                            keep the matcher's positions (no least-squares refinement)\n"
-    "  --ground-gsd G                         the ground filter's inlier threshold, GSD of the secondary\n"
-    "                                         image (default 3 for correlation, 10 for patch and\n"
-    "                                         guided, the paper's; correlation's is at least 1.5 GSD\n"
-    "                                         of the master image); larger for scans much finer than\n"
-    "                                         their DSMs' errors (docs/precise-matching.md)\n"
-    "  --sharpen A[,S]                        correlation: sharpen the master images before matching,\n"
-    "                                         an unsharp mask of amount A and Gaussian sigma S px\n"
-    "                                         (default S 1; A 0 = off): for film scans blurred\n"
-    "                                         beyond their grain (docs/correlation-matching.md)\n"
-    "  --no-ground-filter                     skip the 3D Helmert RANSAC\n"
-    "  --no-ncc                               skip the NCC validator\n"
-    "  --no-pictures                          do not write pairs/*.png\n"
-    "  --adjust                               then the combined adjustment (the reference fixed, every\n"
-    "                                         free epoch self-calibrated): DIR/adjusted/"
-#if !DIACHRON_MATCH_EPOCHS_ADJUST
-    " (not in this build: no Ceres)"
-#endif
-    "\n"
-    "  --affine image|camera                  with --adjust: B1, B2 per image (default) or one pair\n"
-    "                                         per camera (MicMac's Fraser calibration)\n"
-    "  --hold LIST                            with --adjust: the free epochs' intrinsics held at their values\n"
-    "                                         in cameras.txt, of f,cx,cy,K1,K2,K3,P1,P2 (e.g. K3 on a\n"
-    "                                         block too weak to tell it from K1, K2 and f)\n"
-    "  --prior LIST                           with --adjust: the free epochs' intrinsics tied to their values\n"
-    "                                         in cameras.txt with a standard deviation, e.g. from a\n"
-    "                                         calibration certificate: NAME=SIGMA,... of f,cx,cy (px),\n"
-    "                                         K1,K2,K3,P1,P2 (e.g. f=2,cx=1,cy=1); between --hold and free\n"
-    "  --one-camera                           with --adjust: each free epoch's images share one camera (the\n"
-    "                                         first image's values), e.g. one film camera whose SfM\n"
-    "                                         gave each scan its own; without it images share a\n"
-    "                                         camera when cameras.txt gives them the same values\n"
-    "  --gcps FILE                            with --adjust: ground control points, lines 'point NAME\n"
-    "                                         X Y Z SIGMA' (the reference's frame) and 'obs NAME IMAGE X Y'\n"
-    "                                         (IMAGE of any images.txt, diachron pixels; io/\n"
-    "                                         control_points.hpp); report.json gives their errors\n"
-    "  --check-points FILE                    with --adjust: independent check points, the same layout\n"
-    "                                         (SIGMA ignored; observations in the free epochs' images):\n"
-    "                                         each free epoch's errors after the rough co-registration\n"
-    "                                         and after the adjustment (the paper's table) on stdout\n"
-    "                                         and report.json\n"
-    "  --threads N                            worker threads, 0 = all cores (default 0)\n"
-    "  --quiet                                no progress on stderr\n";
+const char* kDescription =
+    "match_epochs: inter-epoch tie points between two or more epochs of aerial images (rough\n"
+    "co-registration from the DSMs, overlapping pairs, precise matching), and with --adjust one\n"
+    "combined adjustment of all epochs. Each EPOCH_DIR, named by its folder: a COLMAP model (text\n"
+    "cameras.txt images.txt points3D.txt, or COLMAP's .bin), images/, dsm.tif in the model's frame,\n"
+    "optionally masks/<image name>.png or images/<stem>_Masq.tif (0 where no match may be); or an\n"
+    "orthophoto epoch: ortho.tif and dsm.tif in one CRS. The last epoch given is the reference\n"
+    "(--reference); the others are taken in name order. Each epoch's model, DSM and images are\n"
+    "checked against each other before any work. Outputs go to --out (docs/precise-matching.md).\n"
+    "Exit status: 0 success (report.json's \"trust\" grades it), 2 no answer (no co-registration,\n"
+    "overlap, match or adjustment: the reason is printed), 1 bad input or options.\n";
 
+// A strict number option: the whole text a number of T (no "2px", no "-1" for a count), within
+// [lo, hi]; the message names the range in the option's own words (`wants`).
+template <class T>
+CLI::Validator strict_number(T lo, T hi, const std::string& wants) {
+  return CLI::Validator(
+      [lo, hi, wants](std::string& text) -> std::string {
+        T value{};
+        bool parsed = false;
+        if constexpr (std::is_integral_v<T>) {
+          const char* end = text.data() + text.size();
+          const auto [ptr, ec] = std::from_chars(text.data(), end, value);
+          parsed = ec == std::errc() && ptr == end;
+        } else {
+          char* end = nullptr;
+          errno = 0;
+          value = static_cast<T>(std::strtod(text.c_str(), &end));
+          parsed = !text.empty() && end == text.c_str() + text.size() && errno == 0 && std::isfinite(value);
+        }
+        if (!parsed) return "'" + text + "' is not " + (std::is_integral_v<T> ? "a whole number" : "a number") + "; it wants " + wants;
+        if (value < lo || value > hi) return "it wants " + wants + ", got " + text;
+        return std::string();
+      },
+      "", "strict_number");
+}
 
 std::string quoted(const std::string& s) {
   std::string q = "\"";
@@ -295,9 +264,9 @@ void write_homol_names(const std::string& path, const std::vector<Epoch>& epochs
   DIACHRON_CHECK(out.good(), "cannot write " << path);
 }
 
-// The pictures are drawn on copies of the images at most kPictureSidePx on their longer side:
-// full-resolution archive scans (12000 px and more) would make PNGs of hundreds of MB per pair and
-// keep gigabytes of images in this cache. Images up to that size are drawn as they are.
+// The pictures are drawn from copies of the images at most kPictureSidePx on their longer side
+// (the pictures themselves are at most 1600 px): full-resolution archive scans (12000 px and more)
+// would keep gigabytes of images in this cache. Images up to that size are kept as they are.
 constexpr int kPictureSidePx = 2000;
 
 struct Picture {
@@ -334,6 +303,40 @@ class PictureImages {
   std::vector<std::optional<Picture>> images_;
 };
 
+
+// A pair's picture (vision/draw_pair_overlay.hpp): the secondary image warped onto the master's
+// through the homography that best maps its final matches (least squares over all of them, in the
+// pictures' pixels; over relief that is the plane the matches share, good enough to see whether
+// the two images line up), the matches as dots coloured by their correlation score or, for the
+// descriptor methods, by their distance to that homography (relief parallax included). Fewer than
+// 4 matches draw no picture: they hold no homography.
+void write_pair_picture(const std::string& path, const Picture& pa, const Picture& pb, const PointMatches& matches,
+                        bool scores, const std::string& title) {
+  std::vector<PointPair2> pairs;
+  for (const PointMatch& m : matches) pairs.push_back({pb.at(m.b), pa.at(m.a)});
+  const std::optional<Homography2> h = estimate_homography(pairs);
+  if (!h) return;
+  std::vector<Vec2> points;
+  std::vector<double> values;
+  for (std::size_t k = 0; k < matches.size(); ++k) {
+    points.push_back(pairs[k].target);
+    const std::optional<Vec2> mapped = (*h)(pairs[k].source);
+    values.push_back(scores ? matches[k].score
+                            : mapped ? (*mapped - pairs[k].target).norm() / pa.scale.x()
+                                     : 1e9);  // off the scale: drawn as the worst
+  }
+  DrawPairOverlayOptions o;
+  o.title = title;
+  if (!scores) {
+    o.values = PairOverlayValues::ResidualPx;
+    o.value_low = 0.0;
+    o.value_high = 10.0;
+    o.value_name = "distance to the homography (master px)";
+  } else {
+    o.value_name = "correlation score";
+  }
+  write_pair_overlay_jpg(path, pa.image, pb.image, h->matrix, points, values, o);
+}
 
 #if DIACHRON_MATCH_EPOCHS_ADJUST
 // "a,b" -> {"a", "b"}; "" -> none.
@@ -418,6 +421,40 @@ std::string json_rms(const ResidualRms& r) {
 }
 
 
+
+// `images` (cameras.json's, named as images.txt names them) under their Homol names: one name per
+// image over all epochs, as MicMac wants them.
+std::vector<CamerasJsonImage> images_homol_named(std::vector<CamerasJsonImage> images, const std::vector<Epoch>& epochs) {
+  std::size_t k = 0;
+  for (const Epoch& e : epochs)
+    for (std::size_t i = 0; i < e.folder.images.size() && !e.folder.is_ortho(); ++i, ++k) images.at(k).name = e.homol[i];
+  return images;
+}
+
+struct MicmacExport {
+  MicmacWriteReport written;
+  double max_conversion_error_px = 0.0;
+};
+
+// DIR/adjusted/micmac/: Ori-diachron/ (every image of the photo epochs, AltiSol the reference DSM's
+// mean height), a link per image named as in Homol/, and Homol -> ../../Homol.
+MicmacExport write_micmac_export(const std::string& project, const std::vector<Epoch>& epochs,
+                                 const std::vector<CamerasJsonImage>& images, double ground) {
+  make_folders(project, "adjusted/micmac");
+  MicmacWriteOptions options;
+  options.ground_altitude = ground;
+  MicmacExport out;
+  out.written = write_micmac_ori_folder(project, "diachron", images, options);
+  for (const MicmacWrittenCalibration& c : out.written.calibrations)
+    out.max_conversion_error_px = std::max(out.max_conversion_error_px, c.conversion.exact ? 0.0 : c.conversion.max_error_px);
+  for (const Epoch& e : epochs) {
+    if (e.folder.is_ortho()) continue;
+    for (std::size_t i = 0; i < e.folder.images.size(); ++i)
+      std::filesystem::create_symlink(std::filesystem::absolute(e.folder.images[i].path), project + "/" + e.homol[i]);
+  }
+  std::filesystem::create_directory_symlink("../../Homol", project + "/Homol");
+  return out;
+}
 
 // The control points of a control-point file with their image names resolved in the epochs:
 // each name must be an image of exactly one epoch (orthophoto tiles are no images here).
@@ -635,6 +672,28 @@ void rough_json(std::ostream& out, const Epoch& e) {
       << ", \"seconds\": " << rough.seconds.total << "}";
 }
 
+// An epoch's input checks (io/epoch_folder_check.hpp) as report.json gives them.
+void input_check_json(std::ostream& o, const EpochFolderCheck& c) {
+  const ModelDsmAgreement& a = c.agreement;
+  double least = 1.0;
+  for (double share : c.footprint_share) least = std::min(least, share);
+  o << "{\"model_dsm\": {\"verdict\": " << quoted(to_string(a.verdict)) << ", \"message\": " << quoted(a.message)
+    << ", \"points\": " << a.points << ", \"on_dsm\": " << a.on_dsm << ", \"tolerance\": " << json_number_or_null(a.tolerance)
+    << ", \"median_dz\": " << json_number_or_null(a.median_dz) << ", \"nmad_dz\": " << json_number_or_null(a.nmad_dz)
+    << ", \"share_within\": " << json_number_or_null(a.share_within) << ", \"best_offset\": ["
+    << json_number_or_null(a.best_offset.x()) << ", " << json_number_or_null(a.best_offset.y()) << ", "
+    << json_number_or_null(a.best_offset.z()) << "], \"best_share\": " << json_number_or_null(a.best_share)
+    << "}, \"gsd\": " << json_number_or_null(c.gsd) << ", \"least_footprint_share\": "
+    << (c.footprint_share.empty() ? std::string("null") : json_number_or_null(least))
+    << ", \"unreadable_images\": " << c.unreadable_images << ", \"wrong_size_images\": " << c.wrong_size_images
+    << ", \"issues\": [";
+  for (std::size_t k = 0; k < c.issues.size(); ++k)
+    o << (k ? ", " : "") << "{\"severity\": " << quoted(to_string(c.issues[k].severity)) << ", \"check\": "
+      << quoted(c.issues[k].check) << ", \"what\": " << quoted(c.issues[k].what) << ", \"remedy\": "
+      << quoted(c.issues[k].remedy) << "}";
+  o << "]}";
+}
+
 // report.json: per epoch (its co-registration), per epoch pair (overlapping pairs, matches).
 // `sections`: further top-level members, each "  \"key\": ...,\n" (the adjustment's).
 void write_report(const std::string& path, const std::vector<Epoch>& epochs, std::size_t reference,
@@ -834,6 +893,144 @@ std::vector<std::size_t> untied_epochs(const std::vector<Epoch>& epochs, std::si
   return out;
 }
 
+// Progress on stderr. On a terminal one line rewritten in place; into a file or a pipe whole lines
+// (a stage's start, every tenth of it, its end), since '\r' piles up in a log. break_line() ends an
+// open line, so that a warning or an error starts on a line of its own.
+struct Progress {
+  static inline bool quiet = false;
+  static inline bool open = false;  // a '\r' line is on the terminal without its newline
+
+  static void break_line() {
+    if (open) std::fputc('\n', stderr);
+    open = false;
+  }
+
+  static ProgressCallback callback() {
+    const bool terminal = ::isatty(STDERR_FILENO) == 1;
+    return [terminal, clock = std::make_shared<ProgressClock>(),
+            shown = std::make_shared<std::map<std::string, std::size_t>>()](const ProgressEvent& e) {
+      const std::string line = progress_line(e, (*clock)(e));
+      if (terminal) {
+        // Padded: a line shorter than the one it overwrites leaves no tail behind.
+        std::fprintf(stderr, "\r%-72s", line.c_str());
+        open = e.done < e.total;
+        if (!open) std::fputc('\n', stderr);
+        return;
+      }
+      std::size_t& tenth = (*shown)[e.stage];
+      const std::size_t now = e.total == 0 ? 10 : e.done * 10 / e.total;
+      if (e.done == 0 || e.done >= e.total || now > tenth) {
+        std::fprintf(stderr, "%s\n", line.c_str());
+        tenth = e.done == 0 ? 0 : now;
+      }
+    };
+  }
+};
+
+// A warning: on stderr on its own line, and kept for report.json.
+void warn(std::vector<std::string>& warnings, const std::string& text) {
+  Progress::break_line();
+  std::fprintf(stderr, "warning: %s\n", text.c_str());
+  warnings.push_back(text);
+}
+
+// The wall-clock time of each stage of the run and in total, for report.json.
+class RunClock {
+ public:
+  RunClock() : start_(std::chrono::steady_clock::now()), last_(start_), started_(std::time(nullptr)) {}
+  // Ends the stage under way (its time goes to `name`, added up when a stage comes again).
+  void stage(const std::string& name) {
+    const auto now = std::chrono::steady_clock::now();
+    const double seconds = std::chrono::duration<double>(now - last_).count();
+    last_ = now;
+    for (auto& [n, s] : stages_)
+      if (n == name) {
+        s += seconds;
+        return;
+      }
+    stages_.emplace_back(name, seconds);
+  }
+  std::string json() const {
+    std::ostringstream o;
+    o.precision(4);
+    o << "{";
+    for (const auto& [name, seconds] : stages_) o << quoted(name) << ": " << seconds << ", ";
+    o << "\"total\": " << std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count() << "}";
+    return o.str();
+  }
+  std::string started() const {
+    char text[32];
+    std::tm utc{};
+    ::gmtime_r(&started_, &utc);
+    std::strftime(text, sizeof text, "%Y-%m-%dT%H:%M:%SZ", &utc);
+    return text;
+  }
+
+ private:
+  std::chrono::steady_clock::time_point start_, last_;
+  std::time_t started_;
+  std::vector<std::pair<std::string, double>> stages_;
+};
+
+// What match_epochs writes into --out: replaced as a whole by a rerun, never mixed with its outputs.
+bool is_match_epochs_output(const std::string& name) {
+  static const std::set<std::string> kOutputs = {"Homol", "adjusted", "pairs", "dod", "report.json", "homol_names.txt"};
+  return kOutputs.count(name) > 0 || (name.rfind("rough_helmert_", 0) == 0 && name.size() > 19 &&
+                                      name.compare(name.size() - 5, 5, ".json") == 0);
+}
+
+// The run's outputs are written into a fresh folder inside --out and moved into place when the run
+// ends (commit()), after the outputs of an earlier run are removed: a rerun that finds fewer pairs
+// or fails never leaves earlier tie points beside its report. A run stopped by an error (exit 1)
+// leaves --out as it was. --out must be new or empty unless `overwrite`.
+class OutputFolder {
+ public:
+  OutputFolder(const std::string& final_dir, bool overwrite) : final_(final_dir) {
+    std::vector<std::string> entries;
+    if (is_folder(final_))
+      for (const std::string& e : folder_entries(final_))
+        if (e.rfind(kPartial, 0) != 0) entries.push_back(e);
+    if (!entries.empty() && !overwrite) {
+      std::string some;
+      for (std::size_t k = 0; k < entries.size() && k < 4; ++k) some += (k ? ", " : "") + entries[k];
+      DIACHRON_CHECK(false, "--out '" << final_ << "' is not empty (it holds " << some
+                                      << (entries.size() > 4 ? ", ..." : "")
+                                      << "): give a new or empty folder, or --overwrite to replace the outputs of "
+                                         "an earlier run in it");
+    }
+    created_ = !is_folder(final_);
+    make_folders(final_, "--out");
+    work_ = final_ + "/" + kPartial + std::to_string(::getpid());
+    std::filesystem::remove_all(work_);
+    make_folder(work_, "--out");
+  }
+  OutputFolder(const OutputFolder&) = delete;
+  OutputFolder& operator=(const OutputFolder&) = delete;
+  ~OutputFolder() {
+    std::error_code ignored;
+    if (committed_) return;
+    std::filesystem::remove_all(work_, ignored);
+    if (created_) std::filesystem::remove(final_, ignored);  // only when empty: as it was, absent
+  }
+  const std::string& work() const { return work_; }
+  const std::string& final_dir() const { return final_; }
+  // Moves the run's outputs into --out, after removing an earlier run's.
+  void commit() {
+    if (committed_) return;
+    for (const std::string& e : folder_entries(final_))
+      if (is_match_epochs_output(e)) std::filesystem::remove_all(final_ + "/" + e);
+    for (const std::string& e : folder_entries(work_)) std::filesystem::rename(work_ + "/" + e, final_ + "/" + e);
+    std::filesystem::remove(work_);
+    committed_ = true;
+  }
+
+ private:
+  static constexpr const char* kPartial = ".match_epochs-partial-";
+  std::string final_, work_;
+  bool created_ = false;  // --out did not exist before the run
+  bool committed_ = false;
+};
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -843,84 +1040,127 @@ int main(int argc, char** argv) {
   std::vector<std::string> rough_specs;  // --rough: [NAME=]auto|identity|FILE, in order
   PreciseMatchingOptions options;
   OverlappingPairsOptions overlap_options;
-  bool quiet = false, pictures = true, adjust = false, fallback = true, one_camera = false;
+  bool quiet = false, no_pictures = false, adjust = false, one_camera = false, overwrite = false, verbose = false;
+  bool no_refine = false, no_ground_filter = false, no_ncc = false;
+  std::string fallback = "on";
   std::string hold;  // --hold: the free epochs' intrinsics held, comma-separated names
   std::string prior;  // --prior: the free epochs' intrinsic priors, NAME=SIGMA,...
   std::string gcps;  // --gcps: the control-point file
   std::string checks;  // --check-points: the check-point file
+  std::string colmap_format = "text";  // --colmap-format
   double min_overlap = 0.1;
   std::optional<int> cell;  // unset: the default cell
-  std::optional<long long> max_points;  // unset: PreciseCorrelationOptions' bound
+  std::optional<std::size_t> max_points;  // unset: PreciseCorrelationOptions' bound
   std::optional<double> ground_gsd;     // unset: the method's default threshold
+  std::optional<double> nodata;         // --nodata
+  std::optional<double> ncc_threshold;  // unset: the validator's default
   std::optional<std::string> sharpen;   // unset: PreciseCorrelationOptions' master_sharpen
   GeoTiffReadOptions dsm_read;
   std::size_t threads = 0;
+  RunClock run_clock;
 #if DIACHRON_MATCH_EPOCHS_ADJUST
   // Ceres logs through glog on stderr (e.g. a trust-region step it rejected); the adjustment's
   // report and report.json say what matters, so only fatal messages are let through.
   FLAGS_minloglevel = google::GLOG_FATAL;
 #endif
+  // Whole lines on stdout even into a file, so that they keep their order with stderr's progress.
+  std::setvbuf(stdout, nullptr, _IOLBF, 0);
+  CLI::App app{kDescription, "match_epochs"};
+  app.get_formatter()->column_width(34);
+  app.add_option("EPOCH_DIR", dirs, "epoch folders, two or more")->required();
+  app.add_option("--out", out_dir, "output folder (created; it must be new or empty unless --overwrite)")->required();
+  app.add_flag("--overwrite", overwrite,
+               "replace the outputs of an earlier run in --out (they are removed only when this run ends, "
+               "so a failed run leaves them as they were)");
+  app.add_option("--reference", reference_name, "the reference epoch by its folder's name (default: the last given)");
+  app.add_option("--rough", rough_specs,
+                 "[NAME=]auto|identity|FILE: a free epoch -> the reference, co-registered from the DSMs (auto, "
+                 "default; through another free epoch when that fails), the identity (one frame already), or a "
+                 "helmert.json FILE; for every free epoch or for NAME (repeatable)")
+      ->allow_extra_args(false);
+  app.add_option("--method", method, "tentative matches: correlation (default), patch or guided")
+      ->check(CLI::IsMember({"correlation", "patch", "guided"}));
+  app.add_option("--measure", measure, "correlation's similarity: orientation (default), gradient or intensity")
+      ->check(CLI::IsMember({"orientation", "gradient", "intensity"}));
+  app.add_option("--cell", cell, "correlation: one master point per PX x PX cell (default 6, coarser on large images)")
+      ->check(strict_number<int>(2, 4096, "a cell side in [2, 4096] px"));
+  app.add_option("--max-points", max_points,
+                 "correlation: the cell grows from 6 px on images of more than N cells (default 60000)")
+      ->check(strict_number<std::size_t>(1, std::numeric_limits<std::size_t>::max() / 2, "at least 1 point per image"));
+  app.add_option("--matcher", matcher_name, "patch/guided features: sift, rootsift (default), akaze or xfeat")
+      ->check(CLI::IsMember({"sift", "rootsift", "akaze", "xfeat"}));
+  app.add_option("--model", model_path, "XFeat ONNX file (with --matcher xfeat)")->check(CLI::ExistingFile);
+  app.add_option("--fallback", fallback,
+                 "on|off: dense correlation search of the DSMs when the features find no co-registration "
+                 "(default on; graded low trust)")
+      ->check(CLI::IsMember({"on", "off"}));
+  app.add_option("--nodata", nodata, "also treat DSM heights equal to V as holes (a dsm.tif without a nodata tag)")
+      ->check(strict_number<double>(-1e300, 1e300, "a height"));
+  app.add_option("--min-overlap", min_overlap, "least overlap of a pair, share of the smaller footprint (default 0.1)")
+      ->check(strict_number<double>(0.0, 1.0, "a share in [0, 1]"));
+  app.add_option("--ncc-threshold", ncc_threshold, "least NCC of a kept match (default 0.6, MicMac's)")
+      ->check(strict_number<double>(-1.0, 1.0, "an NCC in [-1, 1]"));
+  app.add_flag("--no-refine", no_refine, "keep the matcher's positions (no least-squares refinement)");
+  app.add_option("--ground-gsd", ground_gsd,
+                 "the ground filter's threshold, GSD of the secondary image (default 3 for correlation, 10 "
+                 "for patch and guided)")
+      ->check(strict_number<double>(1e-9, 1e9, "a threshold > 0 (GSD of the secondary image)"));
+  app.add_option("--sharpen", sharpen, "A[,S]: correlation: sharpen the master images, amount A, sigma S px (S 1)");
+  app.add_flag("--no-ground-filter", no_ground_filter, "skip the 3D Helmert RANSAC");
+  app.add_flag("--no-ncc", no_ncc, "skip the NCC validator");
+  app.add_flag("--no-pictures", no_pictures, "do not write pairs/ and adjusted/residuals/");
+  app.add_flag("--adjust", adjust,
+               "then the combined adjustment (the reference fixed, every free epoch self-calibrated): DIR/adjusted/"
+#if !DIACHRON_MATCH_EPOCHS_ADJUST
+               " (not in this build: no Ceres)"
+#endif
+  );
+  app.add_option("--affine", affine, "with --adjust: B1, B2 per image (default) or per camera (MicMac's)")
+      ->check(CLI::IsMember({"image", "camera"}));
+  app.add_option("--hold", hold, "with --adjust: intrinsics held, of f,cx,cy,K1,K2,K3,P1,P2 (e.g. K3)");
+  app.add_option("--prior", prior, "with --adjust: intrinsics tied to their values with a sigma, NAME=SIGMA,... (f=2,cx=1)");
+  app.add_flag("--one-camera", one_camera, "with --adjust: each free epoch's images share one camera");
+  app.add_option("--gcps", gcps, "with --adjust: ground control points (io/control_points.hpp)");
+  app.add_option("--check-points", checks, "with --adjust: independent check points, the same layout");
+  app.add_option("--colmap-format", colmap_format, "with --adjust: adjusted/colmap/ as text (default) or binary")
+      ->check(CLI::IsMember({"text", "binary"}));
+  app.add_option("--threads", threads, "worker threads, 0 = all cores (default 0)")
+      ->check(strict_number<std::size_t>(0, 4096, "a thread count in [0, 4096]"));
+  app.add_flag("--quiet", quiet, "no progress on stderr");
+  app.add_flag("--verbose", verbose, "errors with the library's internal condition (for bug reports)");
   try {
-    for (int i = 1; i < argc; ++i) {
-      const std::string a = argv[i];
-      auto value = [&]() -> std::string {
-        DIACHRON_CHECK(i + 1 < argc, "missing value after " << a);
-        return argv[++i];
-      };
-      if (a == "--out") out_dir = value();
-      else if (a == "--method") method = value();
-      else if (a == "--matcher") matcher_name = value();
-      else if (a == "--measure") measure = value();
-      else if (a == "--cell") cell = std::stoi(value());
-      else if (a == "--max-points") max_points = std::stoll(value());
-      else if (a == "--model") model_path = value();
-      else if (a == "--min-overlap") min_overlap = std::stod(value());
-      else if (a == "--rough") rough_specs.push_back(value());
-      else if (a == "--reference") reference_name = value();
-      else if (a == "--nodata") {
-        dsm_read.assume_untagged_nodata = true;
-        dsm_read.untagged_nodata = std::stod(value());
-      }
-      else if (a == "--fallback") {
-        const std::string f = value();
-        DIACHRON_CHECK(f == "on" || f == "off", "--fallback wants on or off, got '" << f << "'");
-        fallback = f == "on";
-      }
-      else if (a == "--ncc-threshold") options.ncc.min_ncc = std::stod(value());
-      else if (a == "--no-refine") options.ncc.refine = false;
-      else if (a == "--ground-gsd") ground_gsd = std::stod(value());
-      else if (a == "--sharpen") sharpen = value();
-      else if (a == "--no-ground-filter") options.use_ground_filter = false;
-      else if (a == "--no-ncc") options.use_ncc = false;
-      else if (a == "--no-pictures") pictures = false;
-      else if (a == "--threads") threads = std::stoul(value());
-      else if (a == "--adjust") adjust = true;
-      else if (a == "--affine") affine = value();
-      else if (a == "--one-camera") one_camera = true;
-      else if (a == "--hold") hold = value();
-      else if (a == "--prior") prior = value();
-      else if (a == "--gcps") gcps = value();
-      else if (a == "--check-points") checks = value();
-      else if (a == "--quiet") quiet = true;
-      else if (a == "--help" || a == "-h") {
-        std::cout << kUsage;
-        return 0;
-      } else if (!a.empty() && a[0] == '-') DIACHRON_CHECK(false, "unknown option " << a);
-      else dirs.push_back(a);
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    if (e.get_exit_code() == 0) {
+      std::cout << app.help();
+      return 0;
     }
-    DIACHRON_CHECK(dirs.size() >= 2 && !out_dir.empty(),
-                   "two epoch folders or more and --out DIR are required (" << dirs.size() << " folder"
-                                                                            << (dirs.size() == 1 ? "" : "s")
-                                                                            << " given)");
+    std::fprintf(stderr, "match_epochs: %s\n(match_epochs --help lists the options)\n", e.what());
+    return 1;
+  }
+  Progress::quiet = quiet;
+  std::optional<OutputFolder> output;
+  try {
+    DIACHRON_CHECK(dirs.size() >= 2, "two epoch folders or more are needed, " << dirs.size() << " given");
+    if (nodata) {
+      dsm_read.assume_untagged_nodata = true;
+      dsm_read.untagged_nodata = *nodata;
+    }
+    if (ncc_threshold) options.ncc.min_ncc = *ncc_threshold;
+    options.ncc.refine = !no_refine;
+    options.use_ground_filter = !no_ground_filter;
+    options.use_ncc = !no_ncc;
+    const bool pictures = !no_pictures, use_fallback = fallback == "on";
     // The epochs, named by their folders: a folder given twice, or two folders of one name, would
     // make two epochs that outputs cannot tell apart.
     std::vector<Epoch> epochs(dirs.size());
     for (std::size_t k = 0; k < dirs.size(); ++k) {
       epochs[k].dir = dirs[k];
       epochs[k].name = folder_name(dirs[k]);
-      DIACHRON_CHECK(!epochs[k].name.empty() && epochs[k].name != "/" && epochs[k].name != "residuals",
+      DIACHRON_CHECK(!epochs[k].name.empty() && epochs[k].name != "/" && epochs[k].name != "residuals" &&
+                         epochs[k].name != "colmap" && epochs[k].name != "micmac",
                      "epoch folder '" << dirs[k] << "' has no name usable for outputs ('" << epochs[k].name
-                                      << "'): give it a folder of its own, e.g. a link named after its year");
+                                      << "'; residuals, colmap and micmac are taken by adjusted/): give it a folder of its own, e.g. a link named after its year");
       for (std::size_t j = 0; j < k; ++j) {
         DIACHRON_CHECK(dirs[j] != dirs[k] && !same_folder(dirs[j], dirs[k]),
                        "the folder '" << dirs[k] << "' is given twice (as '" << dirs[j] << "')");
@@ -970,9 +1210,8 @@ int main(int argc, char** argv) {
 #if !DIACHRON_MATCH_EPOCHS_ADJUST
     DIACHRON_CHECK(!adjust, "--adjust needs a build with Ceres (diachron::adjustment)");
 #endif
-    DIACHRON_CHECK(affine.empty() || affine == "image" || affine == "camera",
-                   "unknown --affine '" << affine << "' (image or camera)");
     DIACHRON_CHECK(adjust || affine.empty(), "--affine needs --adjust");
+    DIACHRON_CHECK(adjust || colmap_format == "text", "--colmap-format needs --adjust");
     DIACHRON_CHECK(adjust || !one_camera, "--one-camera needs --adjust");
     DIACHRON_CHECK(adjust || hold.empty(), "--hold needs --adjust");
     DIACHRON_CHECK(adjust || prior.empty(), "--prior needs --adjust");
@@ -986,27 +1225,16 @@ int main(int argc, char** argv) {
     const std::vector<Intrinsic> held = parse_intrinsics(hold);  // before any work: a typo fails fast
     const std::vector<IntrinsicPrior> priors = parse_priors(prior);
 #endif
-    DIACHRON_CHECK(method == "patch" || method == "guided" || method == "correlation",
-                   "unknown --method '" << method << "' (correlation, patch or guided)");
     if (measure == "intensity") options.correlation.match.measure = CorrelationMeasure::intensity;
     else if (measure == "gradient") options.correlation.match.measure = CorrelationMeasure::gradient;
-    else if (measure == "orientation" || measure.empty()) options.correlation.match.measure = CorrelationMeasure::orientation;
-    else DIACHRON_CHECK(false, "unknown --measure '" << measure << "' (orientation, gradient or intensity)");
+    else options.correlation.match.measure = CorrelationMeasure::orientation;
     DIACHRON_CHECK(measure.empty() || method == "correlation", "--measure goes with --method correlation");
     DIACHRON_CHECK(!cell || method == "correlation", "--cell goes with --method correlation");
-    if (cell) {
-      DIACHRON_CHECK(*cell >= 2, "--cell wants a side of at least 2 px, got " << *cell);
-      options.correlation.use_fixed_cell(*cell);
-    }
+    if (cell) options.correlation.use_fixed_cell(*cell);
     DIACHRON_CHECK(!max_points || method == "correlation", "--max-points goes with --method correlation");
     DIACHRON_CHECK(!max_points || !cell, "--cell and --max-points both set the cell: give one of them");
-    if (max_points) {
-      DIACHRON_CHECK(*max_points >= 1, "--max-points wants at least 1 point per image, got " << *max_points);
-      options.correlation.max_points_per_image = static_cast<std::size_t>(*max_points);
-    }
+    if (max_points) options.correlation.max_points_per_image = *max_points;
     if (ground_gsd) {
-      DIACHRON_CHECK(std::isfinite(*ground_gsd) && *ground_gsd > 0.0,
-                     "--ground-gsd wants a threshold > 0 (GSD of the secondary image), got " << *ground_gsd);
       DIACHRON_CHECK(options.use_ground_filter, "--ground-gsd and --no-ground-filter contradict each other");
       ground_threshold_gsd(options, method) = *ground_gsd;
     }
@@ -1026,9 +1254,6 @@ int main(int argc, char** argv) {
       DIACHRON_CHECK(valid, "--sharpen wants A[,S], an amount in [0, 20] and a sigma in (0, 20] px, got '" << *sharpen
                                                                                                            << "'");
     }
-    DIACHRON_CHECK(matcher_name == "sift" || matcher_name == "rootsift" || matcher_name == "akaze" ||
-                       matcher_name == "xfeat",
-                   "unknown --matcher '" << matcher_name << "'");
     DIACHRON_CHECK(method != "guided" || matcher_name != "akaze",
                    "--method guided takes sift, rootsift or xfeat features (AKAZE's are binary)");
     DIACHRON_CHECK(matcher_name != "xfeat" || !model_path.empty(), "--matcher xfeat needs --model PATH");
@@ -1037,26 +1262,53 @@ int main(int argc, char** argv) {
     options.threads = threads;
     options.check();
     overlap_options.check();
-    ProgressCallback progress;
-    if (!quiet)
-      progress = [clock = std::make_shared<ProgressClock>()](const ProgressEvent& e) {
-        // Padded: a line shorter than the one it overwrites leaves no tail behind.
-        std::fprintf(stderr, "\r%-72s", progress_line(e, (*clock)(e)).c_str());
-        if (e.done >= e.total) std::fprintf(stderr, "\n");
-      };
+    const ProgressCallback progress = quiet ? ProgressCallback() : Progress::callback();
     options.progress = progress;
-
-    // Min overlap checked here, before any work, in the option's words.
-    DIACHRON_CHECK(std::isfinite(min_overlap) && min_overlap >= 0.0 && min_overlap <= 1.0,
-                   "--min-overlap wants a share of the smaller footprint in [0, 1], got " << min_overlap);
     overlap_options.min_overlap_fraction = min_overlap;
     overlap_options.threads = threads;
     overlap_options.check();
 
+    // Every option is checked; the output folder next (a full --out refuses before any work).
+    output.emplace(out_dir, overwrite);
+    const std::string work = output->work();
+    const auto finish = [&](int status) {
+      output->commit();
+      return status;
+    };
+    std::vector<std::string> warnings;  // printed as they come, and in report.json; they lower the trust
+    std::vector<std::string> notes;     // the same, without lowering it
     for (Epoch& e : epochs) {
       e.folder = read_epoch_folder(e.dir, dsm_read);
       for (const EpochImage& im : e.folder.images) e.frames.push_back(im.epoch_frame());
     }
+    // Each epoch's model, DSM and image files against each other, before any matching trusts them.
+    std::vector<EpochFolderCheck> input_checks;
+    bool refused = false;
+    for (const Epoch& e : epochs) {
+      input_checks.push_back(check_epoch_folder(e.folder));
+      for (const EpochCheckIssue& issue : input_checks.back().issues) {
+        if (issue.severity == EpochCheckSeverity::note) {
+          notes.push_back(issue.what + " (" + issue.remedy + ")");
+          if (!quiet) {
+            Progress::break_line();
+            std::fprintf(stderr, "note: %s\n", notes.back().c_str());
+          }
+          continue;
+        }
+        if (issue.severity == EpochCheckSeverity::warning) {
+          warn(warnings, issue.what + " (" + issue.remedy + ")");
+          continue;
+        }
+        Progress::break_line();
+        std::fprintf(stderr, "match_epochs: %s\n  remedy: %s\n", issue.what.c_str(), issue.remedy.c_str());
+        refused = true;
+      }
+    }
+    if (refused) {
+      std::fprintf(stderr, "match_epochs: refused before any matching; --out is left as it was\n");
+      return 1;
+    }
+    run_clock.stage("reading and checking the inputs");
     for (std::size_t k = 0; k < reference; ++k)
       DIACHRON_CHECK(!adjust || !epochs[k].folder.is_ortho(),
                      "epoch " << epochs[k].name << " ('" << epochs[k].dir
@@ -1064,15 +1316,17 @@ int main(int argc, char** argv) {
                                  "(--reference "
                               << epochs[k].name << ")");
     for (const Epoch& e : epochs)
-      if (const std::optional<double> v = suspected_untagged_nodata(e.folder.dsm); v && !dsm_read.assume_untagged_nodata)
-        std::fprintf(stderr, "warning: '%s/dsm.tif' has heights of %g far below all others and no nodata tag for "
-                             "them: if they are holes, pass --nodata %g\n", e.dir.c_str(), *v, *v);
+      if (const std::optional<double> v = suspected_untagged_nodata(e.folder.dsm); v && !dsm_read.assume_untagged_nodata) {
+        std::ostringstream m;
+        m << "'" << e.dir << "/dsm.tif' has heights of " << *v
+          << " far below all others and no nodata tag for them: if they are holes, pass --nodata " << *v;
+        warn(warnings, m.str());
+      }
 #if DIACHRON_MATCH_EPOCHS_ADJUST
     const std::vector<EpochsControlPoint> control_points = epochs_control_points(control, epochs, "control point");
     const std::vector<EpochsControlPoint> check_points = epochs_control_points(check_records, epochs, "check point");
 #endif
     const bool renamed = set_homol_names(epochs);
-    make_folder(out_dir, "match_epochs");
     if (renamed && !quiet)
       std::fprintf(stderr, "image names with a folder or shared by two epochs: Homol/ uses e<k>_ names "
                            "(DIR/homol_names.txt)\n");
@@ -1087,6 +1341,35 @@ int main(int argc, char** argv) {
     // SIFT on slope images), or given. An epoch that fails goes through another free epoch already
     // placed, the best-trusted first; the chain may grow as epochs are placed.
     std::vector<EpochPair> pairs;
+    std::string trust = "none";  // "high" or "low" once the run has an answer
+    std::vector<std::string> trust_reasons;
+    const std::string command_line = [&] {
+      std::string line;
+      for (int i = 0; i < argc; ++i) line += (i ? ", " : "") + quoted(argv[i]);
+      return line;
+    }();
+    // report.json, written again as the run goes: what the run was (command line, version,
+    // threads, times), the input checks, the warnings and the trust, then `sections`.
+    const auto report = [&](const std::string& sections) {
+      std::ostringstream o;
+      o.precision(6);
+      o << "  \"run\": {\"command_line\": [" << command_line << "], \"version\": " << quoted(DIACHRON_VERSION)
+        << ", \"threads\": " << (threads ? threads : std::max(1u, std::thread::hardware_concurrency()))
+        << ", \"started\": " << quoted(run_clock.started()) << ", \"seconds\": " << run_clock.json() << "},\n"
+        << "  \"trust\": {\"level\": " << quoted(trust) << ", \"reasons\": [";
+      for (std::size_t k = 0; k < trust_reasons.size(); ++k) o << (k ? ", " : "") << quoted(trust_reasons[k]);
+      o << "]},\n  \"warnings\": [";
+      for (std::size_t k = 0; k < warnings.size(); ++k) o << (k ? ",\n    " : "\n    ") << quoted(warnings[k]);
+      o << "],\n  \"notes\": [";
+      for (std::size_t k = 0; k < notes.size(); ++k) o << (k ? ",\n    " : "\n    ") << quoted(notes[k]);
+      o << "],\n  \"input_checks\": {";
+      for (std::size_t k = 0; k < epochs.size(); ++k) {
+        o << (k ? ",\n    " : "\n    ") << quoted(epochs[k].name) << ": ";
+        input_check_json(o, input_checks[k]);
+      }
+      o << "},\n";
+      write_report(work + "/report.json", epochs, reference, pairs, options, method, matcher_name, o.str() + sections);
+    };
     std::vector<std::optional<Helmert3>> given;
     for (const Epoch& e : epochs) given.push_back(e.given);
     const std::vector<EpochPlacement> placements = place_epochs(
@@ -1095,7 +1378,7 @@ int main(int argc, char** argv) {
           RoughCoregistrationOptions rough_options;
           rough_options.threads = threads;
           rough_options.progress = progress;
-          rough_options.correlation_fallback = fallback;
+          rough_options.correlation_fallback = use_fallback;
           return rough_coregistration(epochs[from].folder.dsm, epochs[to].folder.dsm,
                                       ExtractorPairMatcher<SiftExtractor>(SiftExtractor{}), rough_options);
         },
@@ -1120,15 +1403,16 @@ int main(int argc, char** argv) {
         e.rough.message = "through " + e.via + ": " + e.rough.message;
       }
     }
+    run_clock.stage("rough co-registration");
     for (std::size_t k = 0; k < reference; ++k) {
       if (epochs[k].placed) continue;
-      write_report(out_dir + "/report.json", epochs, reference, pairs, options, method, matcher_name);
+      report("");
       std::printf("no co-registration of %s with %s: %s\n", epochs[k].name.c_str(), epochs[reference].name.c_str(),
                   epochs[k].rough.message.c_str());
-      return 2;
+      return finish(2);
     }
     for (std::size_t k = 0; k < reference; ++k)
-      write_helmert_json(epochs[k].reference_from_epoch, out_dir + "/rough_helmert_" + epochs[k].name + ".json");
+      write_helmert_json(epochs[k].reference_from_epoch, work + "/rough_helmert_" + epochs[k].name + ".json");
 
     // 2. Overlapping pairs of every two epochs through the DSMs, the master's footprints moved by
     // the transform between them. Photos and orthophoto tiles alike, through EpochFrame.
@@ -1149,16 +1433,17 @@ int main(int argc, char** argv) {
                     epochs[b].name.c_str(), p.overlap.pairs.size(), p.overlap.candidate_pairs, p.overlap.message.c_str());
         pairs.push_back(std::move(p));
       }
+    run_clock.stage("overlapping pairs");
     for (std::size_t k = 0; k < epochs.size(); ++k) {
       if (std::any_of(pairs.begin(), pairs.end(), [&](const EpochPair& p) {
             return (p.master == k || p.secondary == k) && !p.overlap.pairs.empty();
           }))
         continue;
-      write_report(out_dir + "/report.json", epochs, reference, pairs, options, method, matcher_name);
+      report("");
       std::printf("no overlapping pair: epoch %s overlaps no other epoch (least overlap %g of the smaller footprint; "
                   "check its DSM and rough co-registration)\n",
                   epochs[k].name.c_str(), min_overlap);
-      return 2;
+      return finish(2);
     }
 
     // 3. Precise matching per image pair of every two epochs.
@@ -1198,12 +1483,14 @@ int main(int argc, char** argv) {
       }
     }
 
+    run_clock.stage("precise matching");
+
     // 4. Outputs.
-    write_report(out_dir + "/report.json", epochs, reference, pairs, options, method, matcher_name);
-    const std::string homol = out_dir + "/Homol";
+    report("");
+    const std::string homol = work + "/Homol";
     make_folder(homol, "match_epochs");
-    if (renamed) write_homol_names(out_dir + "/homol_names.txt", epochs);
-    if (pictures) make_folder(out_dir + "/pairs", "match_epochs");
+    if (renamed) write_homol_names(work + "/homol_names.txt", epochs);
+    if (pictures) make_folder(work + "/pairs", "match_epochs");
     std::vector<PictureImages> picture_images;
     picture_images.reserve(epochs.size());
     for (const Epoch& e : epochs) picture_images.emplace_back(e.folder);
@@ -1221,17 +1508,15 @@ int main(int argc, char** argv) {
         if (pictures) {
           const Picture& pa = picture_images[ep.master][p.master];
           const Picture& pb = picture_images[ep.secondary][p.secondary];
-          PointMatches drawn = p.matches;
-          for (PointMatch& m : drawn) {
-            m.a = pa.at(m.a);
-            m.b = pb.at(m.b);
-          }
-          write_matches_png(out_dir + "/pairs/" + safe(a) + "--" + safe(b) + ".png", pa.image, pb.image, drawn);
+          write_pair_picture(work + "/pairs/" + safe(a) + "__" + safe(b) + ".jpg", pa, pb, p.matches,
+                             method == "correlation", ea.folder.images[p.master].name + " (" + ea.name + ") -- " +
+                                                          eb.folder.images[p.secondary].name + " (" + eb.name + ")");
         }
       }
       std::printf("%s -- %s: %s (%.1f s)\n", ea.name.c_str(), eb.name.c_str(), ep.precise.message.c_str(),
                   ep.precise.seconds_total);
     }
+    run_clock.stage("tie points and pictures");
     // Every free epoch must be tied to the reference by matches, directly or through other epochs.
     const std::vector<std::size_t> untied = untied_epochs(epochs, reference, pairs);
     if (!untied.empty()) {
@@ -1243,11 +1528,11 @@ int main(int argc, char** argv) {
                  (p.overlap.pairs.empty() ? std::string("no overlapping pair") : p.precise.message);
       std::printf("no inter-epoch match tying %s to the reference %s: %s\n", names.c_str(),
                   epochs[reference].name.c_str(), why.c_str());
-      return 2;
+      return finish(2);
     }
 
     // 5. The DoD of every free epoch after the rough co-registration: DIR/dod/<epoch>_rough.*.
-    const std::string dod_dir = out_dir + "/dod";
+    const std::string dod_dir = work + "/dod";
     make_folder(dod_dir, "match_epochs");
     const Dsm& reference_dsm = epochs[reference].folder.dsm;
     std::vector<EpochDod> dods;
@@ -1272,7 +1557,12 @@ int main(int argc, char** argv) {
                     d.rough.reason.c_str());
       dods.push_back(std::move(d));
     }
-    write_report(out_dir + "/report.json", epochs, reference, pairs, options, method, matcher_name, dod_json(dods, epochs));
+    run_clock.stage("DoD maps");
+    // The tie points' trust: what the input checks warned about (a run with --adjust adds the
+    // adjustment's grade below).
+    for (const std::string& w : warnings) trust_reasons.push_back("input: " + w);
+    trust = trust_reasons.empty() ? "high" : "low";
+    report(dod_json(dods, epochs));
 #if DIACHRON_MATCH_EPOCHS_ADJUST
     if (adjust) {
       // 6. The combined adjustment of all epochs, the reference held.
@@ -1329,6 +1619,7 @@ int main(int argc, char** argv) {
           image_epoch.push_back(k);
         }
       const BundleReport& r = adjusted.report;
+      run_clock.stage("adjustment");
       std::printf("adjustment: %s\n", r.message.c_str());
       if (!control.empty()) {
         std::size_t used = 0;
@@ -1371,12 +1662,13 @@ int main(int argc, char** argv) {
         checked.push_back(std::move(c));
       }
       if (!r.success) {
-        write_report(out_dir + "/report.json", epochs, reference, pairs, options, method, matcher_name,
-                     adjustment_json(adjusted, epochs, image_epoch, names, nullptr,
+        trust = "none";
+        trust_reasons.push_back("the adjustment failed: " + r.message);
+        report(adjustment_json(adjusted, epochs, image_epoch, names, nullptr,
                                      adjustment_options.bundle.affine_scope, control, checked) +
                          dod_json(dods, epochs));
         std::printf("no adjustment: %s\n", r.message.c_str());
-        return 2;
+        return finish(2);
       }
       std::vector<CamerasJsonImage> images;
       for (std::size_t k = 0; k < epochs.size(); ++k)
@@ -1385,8 +1677,39 @@ int main(int argc, char** argv) {
                                                         adjusted.epochs[k][i]));
       AdjustedExportOptions export_options;
       for (const Epoch& e : epochs) export_options.protected_folders.push_back(e.dir);
-      const AdjustedExportReport exported = write_adjusted_export(images, out_dir, export_options);
-      if (pictures) write_residual_pictures(out_dir + "/adjusted/residuals", epochs, reference, picture_images, adjusted);
+      const AdjustedExportReport exported = write_adjusted_export(images, work, export_options);
+      // All epochs in one COLMAP model with the tracks as points3D (io/adjusted_export.hpp):
+      // DIR/adjusted/colmap/sparse/ and images/ (links named <epoch>/<image>), for COLMAP's
+      // model_analyzer, image_undistorter and dense stereo.
+      std::vector<CamerasJsonImage> colmap_images = images;
+      std::vector<std::string> colmap_paths;
+      {
+        std::size_t i = 0;
+        for (std::size_t k = 0; k < epochs.size(); ++k)
+          for (std::size_t j = 0; j < adjusted.epochs[k].size(); ++j, ++i) {
+            colmap_images[i].name = epochs[k].name + "/" + colmap_images[i].name;
+            colmap_paths.push_back(epochs[k].folder.images[j].path);
+          }
+      }
+      std::vector<ExportTrack> tracks;
+      for (std::size_t t = 0; t < adjusted.track_list.size(); ++t) {
+        if (!adjusted.track_used[t] || !adjusted.points[t].allFinite()) continue;
+        ExportTrack track{adjusted.points[t], {}};
+        for (const TrackObservation& o : adjusted.track_list[t].observations)
+          if (o.image >= 0 && static_cast<std::size_t>(o.image) < colmap_images.size())
+            track.observations.push_back({static_cast<std::size_t>(o.image), o.pixel});
+        if (track.observations.size() >= 2) tracks.push_back(std::move(track));
+      }
+      AdjustedColmapOptions colmap_options;
+      colmap_options.format = colmap_format == "binary" ? ColmapFormat::binary : ColmapFormat::text;
+      colmap_options.protected_folders = export_options.protected_folders;
+      const AdjustedColmapReport colmap = write_adjusted_colmap(colmap_images, colmap_paths, tracks, work, colmap_options);
+      // The same orientation for MicMac (io/micmac_orientation.hpp): DIR/adjusted/micmac/ is a MicMac
+      // project with Ori-diachron/, links to the images under their Homol names (the names MicMac's
+      // Homol/ and Ori- use) and to DIR/Homol, so that Malt, C3DC or Campari run in it as they are.
+      const MicmacExport micmac = write_micmac_export(work + "/adjusted/micmac", epochs, images_homol_named(images, epochs),
+                                                      epochs[reference].folder.dsm.statistics().mean);
+      if (pictures) write_residual_pictures(work + "/adjusted/residuals", epochs, reference, picture_images, adjusted);
       // The DoD after the adjustment: each free epoch's DSM placed by the similarity that best maps
       // its points onto where the adjusted orientation puts them (eval/dsm_reintersection.hpp):
       // DIR/dod/<epoch>.*, in the rough one's colours.
@@ -1413,10 +1736,28 @@ int main(int argc, char** argv) {
                       epochs[k].name.c_str(), epochs[reference].name.c_str(), d.adjusted.stable.median,
                       d.adjusted.stable.nmad, d.adjusted.all.median, d.adjusted.all.nmad);
       }
-      write_report(out_dir + "/report.json", epochs, reference, pairs, options, method, matcher_name,
-                   adjustment_json(adjusted, epochs, image_epoch, names, &exported,
-                                   adjustment_options.bundle.affine_scope, control, checked) +
-                       dod_json(dods, epochs));
+      run_clock.stage("export and DoD maps after the adjustment");
+      // The grade: a camera that moved too far, an undetermined one, a wild export (adjustment/
+      // adjustment_grade.hpp). A success graded low is reported as such, never as trusted.
+      const AdjustmentGrade grade =
+          grade_adjustment(r, std::max(exported.max_conversion_error_px, colmap.max_conversion_error_px));
+      for (const std::string& reason : grade.reasons) {
+        warn(warnings, "adjustment: " + reason);
+        trust_reasons.push_back("adjustment: " + reason);
+      }
+      trust = trust_reasons.empty() ? "high" : "low";
+      std::ostringstream exports;
+      exports << "  \"colmap_export\": {\"model\": " << quoted("adjusted/colmap/sparse") << ", \"format\": "
+              << quoted(colmap_format) << ", \"images\": " << colmap.images << ", \"points\": " << colmap.points
+              << ", \"observations\": " << colmap.observations << ", \"cameras\": " << colmap.cameras.size()
+              << ", \"max_conversion_error_px\": " << json_number_or_null(colmap.max_conversion_error_px)
+              << ", \"mean_reprojection_error_px\": " << json_number_or_null(colmap.mean_reprojection_error_px) << "},\n";
+      exports << "  \"micmac_export\": {\"ori\": " << quoted("adjusted/micmac/Ori-diachron") << ", \"calibrations\": "
+              << micmac.written.calibrations.size() << ", \"max_conversion_error_px\": "
+              << json_number_or_null(micmac.max_conversion_error_px) << "},\n";
+      report(adjustment_json(adjusted, epochs, image_epoch, names, &exported, adjustment_options.bundle.affine_scope,
+                             control, checked) +
+             exports.str() + dod_json(dods, epochs));
       // Against an orthophoto the reference's ties are control points: no inter-epoch RMS of them.
       char inter[96];
       if (ortho_reference && links.empty())
@@ -1425,12 +1766,18 @@ int main(int argc, char** argv) {
         std::snprintf(inter, sizeof inter, "inter-epoch %.3f -> %.3f px", r.before.inter_epoch.rms_px,
                       r.after.inter_epoch.rms_px);
       std::printf("reprojection RMS %.3f -> %.3f px (%s); wrote %s and %s (largest COLMAP conversion error %.3f px)\n",
-                  r.before.all.rms_px, r.after.all.rms_px, inter, exported.cameras_json_path.c_str(),
+                  r.before.all.rms_px, r.after.all.rms_px, inter, (out_dir + "/adjusted/cameras.json").c_str(),
                   (out_dir + "/adjusted/<epoch>").c_str(), exported.max_conversion_error_px);
     }
 #endif
-    return 0;
+    std::printf("trust: %s%s\n", trust.c_str(), trust_reasons.empty() ? "" : " (report.json's \"trust\" says why)");
+    return finish(0);
+  } catch (const Error& e) {
+    Progress::break_line();
+    std::fprintf(stderr, "match_epochs: %s\n", verbose ? e.what() : e.message().c_str());
+    return 1;
   } catch (const std::exception& e) {
+    Progress::break_line();
     std::fprintf(stderr, "match_epochs: %s\n", e.what());
     return 1;
   }

@@ -9,7 +9,7 @@
 #   --clang  also install clang (scripts/clang.sh builds with it).
 set -euo pipefail
 
-packages=(build-essential cmake libeigen3-dev libnanoflann-dev catch2 libopencv-dev libceres-dev libgdal-dev)
+packages=(build-essential cmake libeigen3-dev libnanoflann-dev catch2 libopencv-dev libceres-dev libgdal-dev libcli11-dev)
 optional=()
 for arg in "$@"; do
   case "$arg" in

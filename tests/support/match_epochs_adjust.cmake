@@ -1,7 +1,8 @@
 # match_epochs --adjust end to end on the smallest make_scene scene that co-registers (800 x 600 px,
 # 2 x 2 images per epoch, seed 1): exit 0, every output the docs promise (rough_helmert_e1.json, Homol,
 # report.json with the adjustment's section, adjusted/cameras.json and one COLMAP text model per
-# epoch), the adjusted epoch 1 judged at the scene's check points by score_epochs --check, and the
+# epoch, adjusted/colmap/ (all epochs in one model, opened by COLMAP when installed) and
+# adjusted/micmac/), the adjusted epoch 1 judged at the scene's check points by score_epochs --check, and the
 # inputs unchanged. With 4 of the scene's check points as ground control points (make_scene
 # --control-points, match_epochs --gcps): report.json lists each, used, with its error. The scene's
 # other check points through match_epochs --check-points: their 3D RMS in report.json at least 3
@@ -24,6 +25,29 @@ foreach(f rough_helmert_e1.json report.json dod/e1_rough.tif dod/e1_rough.png do
     message(FATAL_ERROR "match_epochs --adjust wrote no ${f}")
   endif()
 endforeach()
+# All epochs in one COLMAP model with the tie points as points3D, its images/ links, and the MicMac
+# orientations: one Orientation file per image of both epochs (2 x 2 each). Debian's COLMAP, when
+# installed, opens the model and finds every image and the points.
+file(GLOB colmap_links "${WORK}/out/adjusted/colmap/images/*/*.png")
+file(GLOB micmac_orientations "${WORK}/out/adjusted/micmac/Ori-diachron/Orientation-*.xml")
+list(LENGTH colmap_links colmap_link_count)
+list(LENGTH micmac_orientations micmac_count)
+if(NOT EXISTS "${WORK}/out/adjusted/colmap/sparse/points3D.txt" OR NOT colmap_link_count EQUAL 8
+   OR NOT micmac_count EQUAL 8 OR NOT EXISTS "${WORK}/out/adjusted/micmac/Homol")
+  message(FATAL_ERROR "adjusted/colmap (${colmap_link_count} image links) or adjusted/micmac (${micmac_count} "
+                      "orientations) is not complete")
+endif()
+find_program(COLMAP_PROGRAM colmap)
+if(COLMAP_PROGRAM)
+  execute_process(COMMAND "${COLMAP_PROGRAM}" model_analyzer --path "${WORK}/out/adjusted/colmap/sparse"
+                  RESULT_VARIABLE analysed OUTPUT_VARIABLE analysis ERROR_VARIABLE analysis_err)
+  string(APPEND analysis "${analysis_err}")
+  if(NOT analysed EQUAL 0 OR NOT analysis MATCHES "Registered images: 8" OR NOT analysis MATCHES "Points: [1-9][0-9]*")
+    message(FATAL_ERROR "colmap model_analyzer does not open adjusted/colmap/sparse with 8 images and points:\n${analysis}")
+  endif()
+else()
+  message(STATUS "colmap is not installed: adjusted/colmap/sparse not opened by COLMAP")
+endif()
 file(GLOB homol "${WORK}/out/Homol/Pastis*/*.txt")
 if(NOT homol)
   message(FATAL_ERROR "match_epochs --adjust wrote no tie points under Homol/")
@@ -35,6 +59,10 @@ endif()
 file(READ "${WORK}/out/report.json" report)
 if(NOT report MATCHES "\"adjustment\": *{\"success\": *true")
   message(FATAL_ERROR "report.json does not record a successful adjustment:\n${report}")
+endif()
+# A good scene's run is trusted: no input warning, the cameras graded well.
+if(NOT report MATCHES "\"trust\": {\"level\": \"high\", \"reasons\": \\[\\]}")
+  message(FATAL_ERROR "report.json does not trust a good scene's run:\n${report}")
 endif()
 if(NOT report MATCHES "\"affine_scope\": *\"per_image\"")
   message(FATAL_ERROR "report.json does not say where B1, B2 lived (per image by default):\n${report}")
