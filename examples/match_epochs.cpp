@@ -75,6 +75,8 @@
 
 #include <CLI/CLI.hpp>
 
+#include "program_support.hpp"
+
 #include <diachron/core/progress.hpp>
 #include <diachron/eval/dod_map.hpp>
 #include <diachron/io/control_points.hpp>
@@ -115,6 +117,8 @@
 namespace {
 
 using namespace diachron;
+using diachron::programs::Progress;
+using diachron::programs::strict_number;
 
 const char* kDescription =
     "match_epochs: inter-epoch tie points between two or more epochs of aerial images (rough\n"
@@ -128,30 +132,6 @@ const char* kDescription =
     "Exit status: 0 success (report.json's \"trust\" grades it), 2 no answer (no co-registration,\n"
     "overlap, match or adjustment: the reason is printed), 1 bad input or options.\n";
 
-// A strict number option: the whole text a number of T (no "2px", no "-1" for a count), within
-// [lo, hi]; the message names the range in the option's own words (`wants`).
-template <class T>
-CLI::Validator strict_number(T lo, T hi, const std::string& wants) {
-  return CLI::Validator(
-      [lo, hi, wants](std::string& text) -> std::string {
-        T value{};
-        bool parsed = false;
-        if constexpr (std::is_integral_v<T>) {
-          const char* end = text.data() + text.size();
-          const auto [ptr, ec] = std::from_chars(text.data(), end, value);
-          parsed = ec == std::errc() && ptr == end;
-        } else {
-          char* end = nullptr;
-          errno = 0;
-          value = static_cast<T>(std::strtod(text.c_str(), &end));
-          parsed = !text.empty() && end == text.c_str() + text.size() && errno == 0 && std::isfinite(value);
-        }
-        if (!parsed) return "'" + text + "' is not " + (std::is_integral_v<T> ? "a whole number" : "a number") + "; it wants " + wants;
-        if (value < lo || value > hi) return "it wants " + wants + ", got " + text;
-        return std::string();
-      },
-      "", "strict_number");
-}
 
 std::string quoted(const std::string& s) {
   std::string q = "\"";
@@ -893,40 +873,6 @@ std::vector<std::size_t> untied_epochs(const std::vector<Epoch>& epochs, std::si
   return out;
 }
 
-// Progress on stderr. On a terminal one line rewritten in place; into a file or a pipe whole lines
-// (a stage's start, every tenth of it, its end), since '\r' piles up in a log. break_line() ends an
-// open line, so that a warning or an error starts on a line of its own.
-struct Progress {
-  static inline bool quiet = false;
-  static inline bool open = false;  // a '\r' line is on the terminal without its newline
-
-  static void break_line() {
-    if (open) std::fputc('\n', stderr);
-    open = false;
-  }
-
-  static ProgressCallback callback() {
-    const bool terminal = ::isatty(STDERR_FILENO) == 1;
-    return [terminal, clock = std::make_shared<ProgressClock>(),
-            shown = std::make_shared<std::map<std::string, std::size_t>>()](const ProgressEvent& e) {
-      const std::string line = progress_line(e, (*clock)(e));
-      if (terminal) {
-        // Padded: a line shorter than the one it overwrites leaves no tail behind.
-        std::fprintf(stderr, "\r%-72s", line.c_str());
-        open = e.done < e.total;
-        if (!open) std::fputc('\n', stderr);
-        return;
-      }
-      std::size_t& tenth = (*shown)[e.stage];
-      const std::size_t now = e.total == 0 ? 10 : e.done * 10 / e.total;
-      if (e.done == 0 || e.done >= e.total || now > tenth) {
-        std::fprintf(stderr, "%s\n", line.c_str());
-        tenth = e.done == 0 ? 0 : now;
-      }
-    };
-  }
-};
-
 // A warning: on stderr on its own line, and kept for report.json.
 void warn(std::vector<std::string>& warnings, const std::string& text) {
   Progress::break_line();
@@ -1138,7 +1084,6 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "match_epochs: %s\n(match_epochs --help lists the options)\n", e.what());
     return 1;
   }
-  Progress::quiet = quiet;
   std::optional<OutputFolder> output;
   try {
     DIACHRON_CHECK(dirs.size() >= 2, "two epoch folders or more are needed, " << dirs.size() << " given");
