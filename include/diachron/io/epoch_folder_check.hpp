@@ -140,7 +140,7 @@ inline EpochFolderCheck check_epoch_folder(const EpochFolder& epoch, const Epoch
       m << where << ": " << unreadable.size() << " image file" << (unreadable.size() == 1 ? "" : "s")
         << " cannot be read (first: " << unreadable.front() << ")";
       out.issues.push_back({EpochCheckSeverity::refusal, "image_file", m.str(),
-                            "check that images/ holds every image named in images.txt (or images.bin), readable by GDAL"});
+                            "check that every image the model names is in the epoch folder, readable by GDAL"});
     }
     if (!wrong.empty()) {
       std::ostringstream m;

@@ -18,11 +18,15 @@
 /// An epoch delivered as a true orthophoto (synth/ortho_reference.hpp) has instead only
 /// OUT/<epoch>/ortho.tif (8-bit grey GeoTIFF, north-up geotransform in the epoch frame) and
 /// OUT/<epoch>/dsm.tif (its true surface in the epoch frame); no images/ and no COLMAP model.
+/// Written as MicMac projects (SceneWriteOptions::format), a photo epoch has instead of the COLMAP
+/// model the same orientation as `OUT/<epoch>/Ori-SfM/` (io/micmac_orientation.hpp) and its tie
+/// points as `OUT/<epoch>/Homol/` (io/homol.hpp); the truth is the same.
 /// Nothing an SfM of the epoch would not know is in OUT/<epoch>/; OUT/truth/ is for scoring.
 
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <cstdio>
 #include <fstream>
 #include <iomanip>
 #include <limits>
@@ -31,6 +35,7 @@
 #include <optional>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <sys/stat.h>
@@ -49,6 +54,8 @@
 #include <diachron/io/colmap_text.hpp>
 #include <diachron/io/folders.hpp>
 #include <diachron/io/geotiff.hpp>
+#include <diachron/io/homol.hpp>
+#include <diachron/io/micmac_orientation.hpp>
 #include <diachron/synth/scene.hpp>
 #include <diachron/terrain/dsm.hpp>
 
@@ -59,6 +66,20 @@ inline constexpr int kSceneFileVersion = 2;
 
 /// Name of the truth folder inside a scene folder (so no epoch may have this name).
 inline constexpr const char* kSceneTruthFolder = "truth";
+
+/// Name of the orientation a scene's MicMac epoch holds: `OUT/<epoch>/Ori-SfM/`.
+inline constexpr const char* kSceneMicmacOri = "SfM";
+
+/// The form in which write_scene delivers each photo epoch's SfM result.
+enum class SceneEpochFormat {
+  colmap,  ///< cameras.txt, images.txt, points3D.txt (the default)
+  micmac,  ///< a MicMac project: Ori-SfM/ and Homol/ (docs/synthetic-scenes.md, "MicMac epochs")
+};
+
+/// Options of write_scene. Default: the COLMAP layout, byte for byte what write_scene always wrote.
+struct SceneWriteOptions {
+  SceneEpochFormat format = SceneEpochFormat::colmap;
+};
 
 namespace detail {
 
@@ -288,6 +309,56 @@ inline ColmapModel colmap_model_of_epoch(const SyntheticEpoch& epoch) {
   return model;
 }
 
+// The epoch as a MicMac project would hold it: the estimated camera and poses as
+// `<epoch_dir>/Ori-SfM/` (AltiSol the DSM's mean height, the calibration AutoCal-<epoch>-0.xml),
+// every pair of observations of each tie point as `<epoch_dir>/Homol/` (both directions). Image
+// names as in images/ (<name>.png). A COLMAP model left by an earlier write is removed, since a
+// folder with one is read as a COLMAP epoch.
+inline void write_micmac_epoch(const SyntheticEpoch& epoch, const std::string& epoch_dir) {
+  std::vector<CamerasJsonImage> images;
+  images.reserve(epoch.images.size());
+  for (std::size_t i = 0; i < epoch.images.size(); ++i)
+    images.push_back(CamerasJsonImage::from_frame(epoch.images[i].name + ".png", epoch.name, epoch.estimated_frame(i)));
+  MicmacWriteOptions ori;
+  ori.overwrite = true;  // a scene written again replaces its files, as the COLMAP model is replaced
+  ori.ground_altitude = epoch.dsm.statistics().mean;
+  write_micmac_ori_folder(epoch_dir, kSceneMicmacOri, images, ori);
+
+  // One match list per image pair (first image of lower index), in tie-point order.
+  std::map<std::pair<int, int>, PointMatches> pairs;
+  for (const TiePoint& tie : epoch.tie_points)
+    for (std::size_t a = 0; a < tie.observations.size(); ++a)
+      for (std::size_t b = a + 1; b < tie.observations.size(); ++b) {
+        const ImageObservation* p = &tie.observations[a];
+        const ImageObservation* q = &tie.observations[b];
+        DIACHRON_CHECK(p->image >= 0 && static_cast<std::size_t>(p->image) < epoch.images.size() && q->image >= 0 &&
+                           static_cast<std::size_t>(q->image) < epoch.images.size(),
+                       "write_scene: a tie point of epoch " << epoch.name << " observes an unknown image");
+        if (p->image == q->image) continue;
+        if (p->image > q->image) std::swap(p, q);
+        pairs[{p->image, q->image}].push_back(PointMatch{p->pixel, q->pixel, 0.0});
+      }
+  for (const auto& [pair, matches] : pairs)
+    write_homol(epoch_dir + "/Homol", epoch.images[static_cast<std::size_t>(pair.first)].name + ".png",
+                epoch.images[static_cast<std::size_t>(pair.second)].name + ".png", matches);
+  for (const char* table : {"cameras", "images", "points3D"}) std::remove((epoch_dir + "/" + table + ".txt").c_str());
+}
+
+// A MicMac epoch read back (read_scene): the estimated camera (one for the epoch) and each image's
+// estimated pose from `<epoch_dir>/Ori-SfM/`, keyed by image name (<name>.png).
+inline std::map<std::string, MicmacOriImage> read_micmac_epoch(const std::string& epoch_dir, SyntheticEpoch& epoch) {
+  std::map<std::string, MicmacOriImage> out;
+  for (MicmacOriImage& image : read_micmac_ori_folder(epoch_dir, kSceneMicmacOri)) {
+    DIACHRON_CHECK(out.empty() || same_micmac_camera(out.begin()->second.camera, image.camera),
+                   "'" << image.orientation_file << "': its camera is not the one of the epoch's other images ("
+                       << out.begin()->second.orientation_file << "), a synthetic epoch has one");
+    std::string name = image.name;
+    out.emplace(std::move(name), std::move(image));
+  }
+  epoch.estimated_camera = out.begin()->second.camera;
+  return out;
+}
+
 inline std::string scene_file_name(const std::string& directory) {
   return directory + "/" + kSceneTruthFolder + "/scene.txt";
 }
@@ -301,10 +372,15 @@ inline std::string scene_file_name(const std::string& directory) {
 /// records its grid ("epoch <name> orthophoto", then "orthophoto W H" and the six GDAL
 /// coefficients) instead of a camera, images and tie points; the scene file's version stays 2,
 /// as scenes without one are written exactly as before. The landscape description (roads,
-/// buildings) is not written: its effect is in the true surfaces and albedo rasters. Throws
+/// buildings) is not written: its effect is in the true surfaces and albedo rasters. With
+/// `options.format` micmac, each photo epoch's estimated camera and poses go out as
+/// `<epoch>/Ori-SfM/` instead (write_micmac_ori_folder: AltiSol the epoch DSM's mean height, exact
+/// since the estimated camera has B1 = B2 = 0) and every pair of observations of each tie point
+/// as `<epoch>/Homol/Pastis<image>/<other>.txt`, both directions (write_homol); the images, DSM and
+/// truth are as in the COLMAP layout. Throws
 /// diachron::Error naming the file that cannot be written, or for an epoch named like the truth
 /// folder.
-inline void write_scene(const Scene& scene, const std::string& directory) {
+inline void write_scene(const Scene& scene, const std::string& directory, const SceneWriteOptions& options = {}) {
   DIACHRON_CHECK(!directory.empty(), "write_scene: empty folder name");
   for (const SyntheticEpoch& epoch : scene.epochs)
     DIACHRON_CHECK(epoch.name != kSceneTruthFolder && !epoch.name.empty() && epoch.name.find('/') == std::string::npos,
@@ -364,7 +440,10 @@ inline void write_scene(const Scene& scene, const std::string& directory) {
       const TiePoint& tie = epoch.tie_points[k];
       out << "tie " << k + 1 << ' ' << tie.world.x() << ' ' << tie.world.y() << ' ' << tie.world.z() << '\n';
     }
-    write_colmap_text(detail::colmap_model_of_epoch(epoch), epoch_dir);
+    if (options.format == SceneEpochFormat::micmac)
+      detail::write_micmac_epoch(epoch, epoch_dir);
+    else
+      write_colmap_text(detail::colmap_model_of_epoch(epoch), epoch_dir);
     write_geotiff_dsm(epoch.dsm, epoch_dir + "/dsm.tif");
     write_geotiff_dsm(epoch.true_surface, truth + "/" + epoch.name + "_true_surface.tif");
     if (!epoch.albedo.values.empty())
@@ -385,9 +464,13 @@ inline void write_scene(const Scene& scene, const std::string& directory) {
 /// Reads a scene written by write_scene(): the truth from OUT/truth/, and from each epoch's
 /// folder its images, its DSM, and from its COLMAP model the estimated camera and poses and the
 /// tie points (epoch-frame position and observations); from an orthophoto epoch's folder its
-/// orthophoto (SyntheticEpoch::orthophoto) and DSM, with no images. The landscape is left empty. Throws
+/// orthophoto (SyntheticEpoch::orthophoto) and DSM, with no images. An epoch written as a MicMac
+/// project (a folder with Ori-SfM/ and no cameras.txt) gives its estimated camera and poses from
+/// Ori-SfM/ and its tie points without observations (Homol keeps pairs of observations, not tie
+/// points), their epoch-frame position the truth's. The landscape is left empty. Throws
 /// diachron::Error naming the file (and line) that is missing or cannot be parsed, or that
-/// disagrees with the truth (an image or tie point missing from the COLMAP model).
+/// disagrees with the truth (an image or tie point missing from the COLMAP model, an image missing
+/// from the Ori folder).
 inline Scene read_scene(const std::string& directory) {
   const std::string text_path = detail::scene_file_name(directory);
   struct stat info {};
@@ -453,16 +536,25 @@ inline Scene read_scene(const std::string& directory) {
     }
     epoch.camera = in.camera("camera");
 
-    const ColmapModel model = read_colmap_text(epoch_dir);
+    // A MicMac epoch (SceneEpochFormat::micmac) holds Ori-SfM/ and no COLMAP model.
+    const std::string ori_dir = micmac_ori_folder(epoch_dir, kSceneMicmacOri);
+    const bool micmac = !is_regular_file(epoch_dir + "/cameras.txt") && is_folder(ori_dir);
+    ColmapModel model;
+    std::map<std::string, MicmacOriImage> oriented;
     const std::string images_txt = epoch_dir + "/images.txt";
-    DIACHRON_CHECK(model.cameras.size() == 1, "'" << epoch_dir << "/cameras.txt' has " << model.cameras.size()
-                                                  << " cameras, a synthetic epoch one");
-    const ColmapCamera& colmap_camera = model.cameras.begin()->second;
-    epoch.estimated_camera = camera_from_colmap(colmap_camera).model;
+    const std::string camera_file = micmac ? ori_dir : epoch_dir + "/cameras.txt";
+    if (micmac) {
+      oriented = detail::read_micmac_epoch(epoch_dir, epoch);
+    } else {
+      model = read_colmap_text(epoch_dir);
+      DIACHRON_CHECK(model.cameras.size() == 1, "'" << epoch_dir << "/cameras.txt' has " << model.cameras.size()
+                                                    << " cameras, a synthetic epoch one");
+      epoch.estimated_camera = camera_from_colmap(model.cameras.begin()->second).model;
+    }
     DIACHRON_CHECK(epoch.estimated_camera.width() == epoch.camera.width() &&
                        epoch.estimated_camera.height() == epoch.camera.height(),
-                   "'" << epoch_dir << "/cameras.txt': the camera is " << colmap_camera.width << " x "
-                       << colmap_camera.height << ", the true camera " << epoch.camera.width() << " x "
+                   "'" << camera_file << "': the camera is " << epoch.estimated_camera.width() << " x "
+                       << epoch.estimated_camera.height() << ", the true camera " << epoch.camera.width() << " x "
                        << epoch.camera.height());
 
     in.expect("images");
@@ -477,10 +569,18 @@ inline Scene read_scene(const std::string& directory) {
       image.column = in.value<int>("the image column");
       image.pose_world = in.pose("pose_world");
       image.pose_epoch = in.pose("pose_epoch");
-      const std::optional<std::uint32_t> id = model.find_image(image.name + ".png");
-      DIACHRON_CHECK(id, "'" << images_txt << "' has no image '" << image.name << ".png' (listed in '" << text_path << "')");
-      index_of_colmap_image[*id] = static_cast<int>(i);
-      image.estimated_pose = model.images.at(*id).pose;
+      if (micmac) {
+        const auto it = oriented.find(image.name + ".png");
+        DIACHRON_CHECK(it != oriented.end(), "'" << ori_dir << "' has no Orientation-" << image.name << ".png.xml (image "
+                                                 << image.name << " is listed in '" << text_path << "')");
+        image.estimated_pose = it->second.pose;
+      } else {
+        const std::optional<std::uint32_t> id = model.find_image(image.name + ".png");
+        DIACHRON_CHECK(id, "'" << images_txt << "' has no image '" << image.name << ".png' (listed in '" << text_path
+                               << "')");
+        index_of_colmap_image[*id] = static_cast<int>(i);
+        image.estimated_pose = model.images.at(*id).pose;
+      }
       const std::string png = epoch_dir + "/images/" + image.name + ".png";
       image.pixels = detail::read_scene_image(png);
       DIACHRON_CHECK(image.pixels.width() == epoch.camera.width() && image.pixels.height() == epoch.camera.height(),
@@ -488,21 +588,30 @@ inline Scene read_scene(const std::string& directory) {
                          << epoch.camera.width() << " x " << epoch.camera.height());
       epoch.images.push_back(std::move(image));
     }
-    DIACHRON_CHECK(model.images.size() == epoch.images.size(),
-                   "'" << images_txt << "' has " << model.images.size() << " images, '" << text_path << "' "
+    const std::size_t delivered = micmac ? oriented.size() : model.images.size();
+    DIACHRON_CHECK(delivered == epoch.images.size(),
+                   "'" << (micmac ? ori_dir : images_txt) << "' has " << delivered << " images, '" << text_path << "' "
                        << epoch.images.size() << " for epoch " << epoch.name);
 
     in.expect("tie_points");
     const auto n_ties = in.value<long long>("the number of tie points");
     in.check(n_ties >= 0, "bad number of tie points");
-    DIACHRON_CHECK(static_cast<std::size_t>(n_ties) == model.points3d.size(),
+    DIACHRON_CHECK(micmac || static_cast<std::size_t>(n_ties) == model.points3d.size(),
                    "'" << epoch_dir << "/points3D.txt' has " << model.points3d.size() << " points, '" << text_path
                        << "' " << n_ties << " tie points for epoch " << epoch.name);
+    const Helmert3 epoch_from_world = epoch.epoch_from_world();
     for (long long k = 0; k < n_ties; ++k) {
       TiePoint tie;
       in.expect("tie");
       const auto id = in.value<long long>("the tie point's point3D id");
       in.read(tie.world.data(), 3, "the tie point's world position");
+      if (micmac) {
+        // Homol keeps pairs of observations, not tie points: the position is the truth's, as the
+        // generator computes it, and the observations stay with the Homol files.
+        tie.epoch = epoch_from_world(tie.world);
+        epoch.tie_points.push_back(std::move(tie));
+        continue;
+      }
       const auto point = model.points3d.find(static_cast<std::uint64_t>(id));
       in.check(id >= 0 && point != model.points3d.end(),
                "tie point " + std::to_string(id) + " is not in '" + epoch_dir + "/points3D.txt'");
