@@ -10,16 +10,23 @@
 // iterations, passes over the data, and time. docs/concepts.md explains the policies and how to
 // plug in a new model.
 //
-// Usage: estimators [outlier_ratio=0.8] [num_inliers=500] [seed=1]
+// Usage: estimators [outlier_ratio=0.8] [num_inliers=500] [seed=1], each parsed strictly (CLI11);
+// exit status 2 on a bad argument.
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
+#include <cstdint>
 #include <cstdio>
-#include <cstdlib>
+#include <iostream>
+#include <limits>
 #include <string>
 #include <vector>
 
+#include <CLI/CLI.hpp>
 #include <Eigen/Core>
+
+#include "program_support.hpp"
 
 #include <diachron/core/random.hpp>
 #include <diachron/robust/robust_estimation.hpp>
@@ -114,15 +121,40 @@ void run(const char* name, const Ransac& ransac, const Data& data, const Model& 
 }  // namespace
 
 int main(int argc, char** argv) {
-  const double outlier_ratio = argc > 1 ? std::atof(argv[1]) : 0.8;
-  const auto inliers = static_cast<std::size_t>(argc > 2 ? std::atol(argv[2]) : 500);
-  const auto seed = static_cast<std::uint64_t>(argc > 3 ? std::atol(argv[3]) : 1);
-  if (!(outlier_ratio >= 0.0 && outlier_ratio < 1.0) || inliers < 3) {
-    std::fprintf(stderr, "usage: estimators [outlier_ratio in [0, 1)] [num_inliers >= 3] [seed]\n");
+  using diachron::programs::strict_number;
+  double outlier_ratio = 0.8;
+  std::size_t inliers = 500;
+  std::uint64_t seed = 1;
+  CLI::App app{
+      "estimators: the paper's RANSAC composition and the library's default side by side, on noisy 2D\n"
+      "(similarity) and 3D (Helmert) point pairs buried in outliers (docs/concepts.md). Exit status 2 on a\n"
+      "bad argument.\n",
+      "estimators"};
+  app.add_option("outlier_ratio", outlier_ratio, "share of outliers among all pairs, in [0, 1) (default 0.8)")
+      ->check(strict_number<double>(0.0, std::nextafter(1.0, 0.0), "a share in [0, 1)"));
+  // A bound on the count keeps the scene in memory: ten million inliers and their outliers.
+  app.add_option("num_inliers", inliers, "inlier pairs, at least 3 (default 500)")
+      ->check(strict_number<std::size_t>(3, 10000000, "a count in [3, 10000000]"));
+  app.add_option("seed", seed, "random seed (default 1)")
+      ->check(strict_number<std::uint64_t>(0, std::numeric_limits<std::uint64_t>::max(), "a whole number >= 0"));
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    if (e.get_exit_code() == 0) {
+      std::cout << app.help();
+      return 0;
+    }
+    std::fprintf(stderr, "estimators: %s\n(estimators --help lists the arguments)\n", e.what());
     return 2;
   }
-  const auto outliers =
-      static_cast<std::size_t>(static_cast<double>(inliers) * outlier_ratio / (1.0 - outlier_ratio));
+  // The outliers the ratio asks for, bounded as the inliers are (a ratio near 1 asks for billions).
+  const double wanted = static_cast<double>(inliers) * outlier_ratio / (1.0 - outlier_ratio);
+  if (!(wanted <= 1e7)) {
+    std::fprintf(stderr, "estimators: outlier_ratio %.9g with %zu inliers asks for %.3g outliers, at most 1e7: give a "
+                         "smaller ratio or fewer inliers\n", outlier_ratio, inliers, wanted);
+    return 2;
+  }
+  const auto outliers = static_cast<std::size_t>(wanted);
 
   diachron::RansacOptions options;
   options.threshold = 3.0 * kSigma;

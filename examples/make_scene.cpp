@@ -1,12 +1,13 @@
 /// @file
 /// make_scene: generates a synthetic multi-epoch scene and writes it to a folder as each epoch's
-/// SfM would deliver it (per epoch: images, a COLMAP text model of the estimated orientation, the
-/// DSM), with the truth apart in truth/ (docs/synthetic-scenes.md), then prints a summary.
+/// SfM would deliver it (per epoch: images, a COLMAP text model of the estimated orientation, or
+/// with --micmac a MicMac project's Ori-SfM/ and Homol/, the DSM), with the truth apart in truth/
+/// (docs/synthetic-scenes.md), then prints a summary.
 ///
 ///   make_scene OUT_DIR [--preset plain|decades] [--seed N] [--dem PATH] [--images-per-epoch RxC]
 ///              [--image-size WxH] [--epochs N] [--check-points N] [--dome M] [--offset X,Y]
 ///              [--scan-frame PX] [--control-points N] [--ortho-reference] [--model-offset NAME=DX,DY,DZ]
-///              [--threads N]
+///              [--micmac] [--threads N]
 ///
 /// `--preset decades` starts from SceneOptions::decades_apart(N) (`--epochs N`, 2 to 5, default 2)
 /// and the other flags apply on top of it, so that `make_scene OUT --preset decades --seed S` writes
@@ -15,7 +16,11 @@
 /// instead of images and a model.
 
 #include <algorithm>
+#include <cctype>
+#include <cerrno>
+#include <charconv>
 #include <chrono>
+#include <cmath>
 #include <ctime>
 #include <cstdint>
 #include <cstdio>
@@ -25,6 +30,7 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <system_error>
 #include <type_traits>
 #include <utility>
 #include <vector>
@@ -73,6 +79,11 @@ constexpr const char* kUsage =
     "                           it is: a model and a DSM that disagree, as a COLMAP model poorly aligned\n"
     "                           with model_aligner is (match_epochs must refuse it); the truth is not\n"
     "                           moved (default: none)\n"
+    "  --micmac                 write each photo epoch as a MicMac project instead of a COLMAP model:\n"
+    "                           OUT/<epoch>/Ori-SfM/ (the estimated camera and poses, Orientation-<image>.xml\n"
+    "                           and AutoCal-<epoch>-0.xml) and OUT/<epoch>/Homol/ (every pair of observations\n"
+    "                           of each tie point, both directions); images/, dsm.tif and the truth as\n"
+    "                           without it (not with --model-offset)\n"
     "  --threads N              worker threads, 0 = all cores (default 0)\n";
 
 // Flags that are not given leave the preset's value alone.
@@ -88,6 +99,7 @@ struct Arguments {
   int scan_frame_px = 0;
   int control_points = 0;
   bool ortho_reference = false;
+  bool micmac = false;
   std::optional<std::pair<std::string, diachron::Vec3>> model_offset;  // --model-offset NAME=DX,DY,DZ
   std::size_t threads = 0;
 };
@@ -97,24 +109,25 @@ struct Arguments {
   std::exit(1);
 }
 
+// A whole number of T or a finite double: the whole text, no sign for an unsigned type, no white
+// space, within T's range (std::stoll would take "-1" as 2^64 - 1 for a count, std::stod "nan").
 template <class T>
 T parse_number(const std::string& text, const std::string& option) {
-  try {
-    std::size_t used = 0;
-    T value;
-    if constexpr (std::is_same_v<T, double>) {
-      value = std::stod(text, &used);
-    } else if constexpr (std::is_same_v<T, std::uint64_t>) {
-      if (!text.empty() && text[0] == '-') throw std::invalid_argument("negative");
-      value = std::stoull(text, &used);
-    } else {
-      value = static_cast<T>(std::stoll(text, &used));
-    }
-    if (used != text.size()) throw std::invalid_argument("trailing characters");
-    return value;
-  } catch (const std::exception&) {
-    usage_error("bad value '" + text + "' for " + option);
+  T value{};
+  bool parsed = false;
+  if constexpr (std::is_floating_point_v<T>) {
+    char* end = nullptr;
+    errno = 0;
+    value = std::strtod(text.c_str(), &end);
+    parsed = !text.empty() && !std::isspace(static_cast<unsigned char>(text[0])) &&
+             end == text.c_str() + text.size() && errno == 0 && std::isfinite(value);
+  } else {
+    const auto [ptr, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
+    parsed = ec == std::errc() && ptr == text.data() + text.size();
   }
+  if (!parsed) usage_error("bad value '" + text + "' for " + option + " (a finite number" +
+                           (std::is_floating_point_v<T> ? ")" : ", whole, in range)"));
+  return value;
 }
 
 std::pair<std::string, std::string> split(const std::string& text, char separator, const std::string& option) {
@@ -134,6 +147,10 @@ Arguments parse(int argc, char** argv) {
     }
     if (arg == "--ortho-reference") {
       a.ortho_reference = true;
+      continue;
+    }
+    if (arg == "--micmac") {
+      a.micmac = true;
       continue;
     }
     if (arg.rfind("--", 0) == 0) {
@@ -182,6 +199,7 @@ Arguments parse(int argc, char** argv) {
         a.model_offset = std::make_pair(name, d);
       } else if (arg == "--threads") {
         a.threads = static_cast<std::size_t>(parse_number<std::uint64_t>(value, arg));
+        if (a.threads > 4096) usage_error("--threads must be in [0, 4096]");
       } else {
         usage_error("unknown option " + arg);
       }
@@ -196,6 +214,8 @@ Arguments parse(int argc, char** argv) {
     usage_error("--epochs must be in [2, 5] with --preset decades");
   if (a.epochs && a.preset == "plain" && (*a.epochs < 1 || *a.epochs > 100)) usage_error("--epochs must be in [1, 100]");
   if (a.ortho_reference && a.epochs && *a.epochs < 2) usage_error("--ortho-reference needs at least two epochs");
+  // --model-offset edits the written COLMAP model, which a MicMac epoch does not have.
+  if (a.micmac && a.model_offset) usage_error("--model-offset moves a COLMAP model: not with --micmac");
   return a;
 }
 
@@ -254,7 +274,7 @@ std::pair<int, int> write_point_files(const diachron::Scene& scene, int count, c
   if (!files[0] || !files[1]) {
     for (std::FILE* f : files)
       if (f) std::fclose(f);
-    throw diachron::Error("make_scene: cannot write " + control_path + " or " + check_path);
+    throw diachron::Error("cannot write " + control_path + " or " + check_path);
   }
   const char* kinds[2] = {"control", "check"};
   for (int f = 0; f < 2; ++f)
@@ -278,7 +298,7 @@ std::pair<int, int> write_point_files(const diachron::Scene& scene, int count, c
     ++written[which];
   }
   const bool ok = std::fclose(files[0]) == 0 && std::fclose(files[1]) == 0;
-  if (!ok) throw diachron::Error("make_scene: cannot write " + control_path + " or " + check_path);
+  if (!ok) throw diachron::Error("cannot write " + control_path + " or " + check_path);
   return {written[0], written[1]};
 }
 
@@ -327,7 +347,9 @@ int main(int argc, char** argv) {
       });
       if (!known) usage_error("--model-offset: no epoch with a model is named '" + args.model_offset->first + "'");
     }
-    diachron::write_scene(scene, args.out_dir);
+    diachron::SceneWriteOptions write;
+    if (args.micmac) write.format = diachron::SceneEpochFormat::micmac;
+    diachron::write_scene(scene, args.out_dir, write);
     if (args.model_offset) {
       // The written model is moved, not the scene: the truth keeps the epoch where it is.
       const std::string dir = args.out_dir + "/" + args.model_offset->first;
@@ -382,6 +404,9 @@ int main(int argc, char** argv) {
                   diachron::rad_to_deg(diachron::rotation_angle(h.rotation)), h.translation.x(), h.translation.y(),
                   h.translation.z());
     }
+  } catch (const diachron::Error& e) {
+    std::cerr << "make_scene: " << e.message() << "\n";
+    return 1;
   } catch (const std::exception& e) {
     std::cerr << "make_scene: " << e.what() << "\n";
     return 1;

@@ -124,7 +124,8 @@ const char* kDescription =
     "match_epochs: inter-epoch tie points between two or more epochs of aerial images (rough\n"
     "co-registration from the DSMs, overlapping pairs, precise matching), and with --adjust one\n"
     "combined adjustment of all epochs. Each EPOCH_DIR, named by its folder: a COLMAP model (text\n"
-    "cameras.txt images.txt points3D.txt, or COLMAP's .bin), images/, dsm.tif in the model's frame,\n"
+    "cameras.txt images.txt points3D.txt, or COLMAP's .bin) or a MicMac project (Ori-NAME/, Homol/),\n"
+    "images/, dsm.tif in the model's frame,\n"
     "optionally masks/<image name>.png or images/<stem>_Masq.tif (0 where no match may be); or an\n"
     "orthophoto epoch: ortho.tif and dsm.tif in one CRS. The last epoch given is the reference\n"
     "(--reference); the others are taken in name order. Each epoch's model, DSM and images are\n"
@@ -171,6 +172,16 @@ std::string folder_name(const std::string& given) {
   while (dir.size() > 1 && dir.back() == '/') dir.pop_back();
   const std::size_t slash = dir.find_last_of('/');
   return slash == std::string::npos ? dir : dir.substr(slash + 1);
+}
+
+// The absolute, resolved path of an existing file or folder (as given when it cannot be resolved).
+std::string absolute_path(const std::string& path) {
+  std::string out = path;
+  if (char* real = ::realpath(path.c_str(), nullptr)) {
+    out = real;
+    std::free(real);
+  }
+  return out;
 }
 
 // Whether two paths are one existing file-system object.
@@ -994,6 +1005,7 @@ int main(int argc, char** argv) {
   std::string gcps;  // --gcps: the control-point file
   std::string checks;  // --check-points: the check-point file
   std::string colmap_format = "text";  // --colmap-format
+  MicmacEpochOptions micmac_epochs;    // --micmac-ori, --micmac-homol
   double min_overlap = 0.1;
   std::optional<int> cell;  // unset: the default cell
   std::optional<std::size_t> max_points;  // unset: PreciseCorrelationOptions' bound
@@ -1046,6 +1058,10 @@ int main(int argc, char** argv) {
       ->check(strict_number<double>(0.0, 1.0, "a share in [0, 1]"));
   app.add_option("--ncc-threshold", ncc_threshold, "least NCC of a kept match (default 0.6, MicMac's)")
       ->check(strict_number<double>(-1.0, 1.0, "an NCC in [-1, 1]"));
+  app.add_option("--micmac-ori", micmac_epochs.ori,
+                 "MicMac epochs: the orientation to read, Ori-NAME (default: the folder's only Ori-*)");
+  app.add_option("--micmac-homol", micmac_epochs.homol,
+                 "MicMac epochs: their intra-epoch tie points, e.g. Homol-Guided for SH=-Guided (default Homol)");
   app.add_flag("--no-refine", no_refine, "keep the matcher's positions (no least-squares refinement)");
   app.add_option("--ground-gsd", ground_gsd,
                  "the ground filter's threshold, GSD of the secondary image (default 3 for correlation, 10 "
@@ -1223,7 +1239,7 @@ int main(int argc, char** argv) {
     std::vector<std::string> warnings;  // printed as they come, and in report.json; they lower the trust
     std::vector<std::string> notes;     // the same, without lowering it
     for (Epoch& e : epochs) {
-      e.folder = read_epoch_folder(e.dir, dsm_read);
+      e.folder = read_epoch_folder(e.dir, dsm_read, {}, micmac_epochs);
       for (const EpochImage& im : e.folder.images) e.frames.push_back(im.epoch_frame());
     }
     // Each epoch's model, DSM and image files against each other, before any matching trusts them.
@@ -1300,7 +1316,11 @@ int main(int argc, char** argv) {
       o.precision(6);
       o << "  \"run\": {\"command_line\": [" << command_line << "], \"version\": " << quoted(DIACHRON_VERSION)
         << ", \"threads\": " << (threads ? threads : std::max(1u, std::thread::hardware_concurrency()))
-        << ", \"started\": " << quoted(run_clock.started()) << ", \"seconds\": " << run_clock.json() << "},\n"
+        << ", \"started\": " << quoted(run_clock.started()) << ", \"inputs\": {\"epochs\": [";
+      for (std::size_t k = 0; k < epochs.size(); ++k) o << (k ? ", " : "") << quoted(absolute_path(epochs[k].dir));
+      o << "], \"gcps\": " << (gcps.empty() ? std::string("null") : quoted(absolute_path(gcps)))
+        << ", \"check_points\": " << (checks.empty() ? std::string("null") : quoted(absolute_path(checks)))
+        << "}, \"seconds\": " << run_clock.json() << "},\n"
         << "  \"trust\": {\"level\": " << quoted(trust) << ", \"reasons\": [";
       for (std::size_t k = 0; k < trust_reasons.size(); ++k) o << (k ? ", " : "") << quoted(trust_reasons[k]);
       o << "]},\n  \"warnings\": [";

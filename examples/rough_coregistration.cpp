@@ -9,18 +9,28 @@
 //   DIR/matches.png   the DSM images side by side, 2D inliers green, other tentative matches red
 // DSMs in a geographic CRS (degrees) are refused unless --reproject names a projected CRS for
 // both; the Helmert then maps between the reprojected frames (report.json's "frame").
-// Exit status: 0 success, 2 no co-registration found (reason printed), 1 bad input.
+// Every option is parsed strictly (CLI11: whole numbers, ranges, sizes WxH) before any work.
+// Progress on stderr (lines when it is not a terminal). Errors name the option or the file; --verbose
+// adds the library's internal condition.
+// Exit status: 0 success, 2 no co-registration found (reason printed), 1 bad input or options.
 // The composition it runs is pipeline/rough_coregistration.hpp; docs/rough-coregistration.md says
 // how its defaults were chosen.
 
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
+#include <exception>
 #include <fstream>
 #include <iostream>
-#include <memory>
+#include <limits>
 #include <optional>
 #include <string>
 #include <utility>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+
+#include "program_support.hpp"
 
 #include <diachron/core/progress.hpp>
 #include <diachron/io/dsm_reproject.hpp>
@@ -37,35 +47,17 @@ namespace {
 
 using namespace diachron;
 
-const char* kUsage =
-    "usage: rough_coregistration MASTER_DSM.tif SECONDARY_DSM.tif --out DIR [options]\n"
-    "  --matcher sift|rootsift|akaze|xfeat   pair matcher (default sift)\n"
-    "  --model PATH                          XFeat ONNX file (with --matcher xfeat)\n"
-    "  --image relief|slope|stretch|wallis|hillshade|multihillshade   DSM image (default slope)\n"
-    "  --k-sigma K                           stretch range for stretch/wallis (default 2, the paper)\n"
-    "  --tile WxH                            tile size in DSM pixels, buffers included\n"
-    "                                        (default 1920x1440, MicMac's; the paper's was 640x480)\n"
-    "  --buffer BXxBY                        margin around each tile core, DSM pixels (default 0x0)\n"
-    "                                        (tiles overlap by 2 * buffer; a match is kept in its\n"
-    "                                        master tile's core only)\n"
-    "  --no-tiling                           match the whole DSM images\n"
-    "  --no-rotations                        try 0 degrees only\n"
-    "  --no-scales                           no scale hypotheses (coarsened DSMs for resolution gaps)\n"
-    "  --fallback off|heights|gradient       dense correlation search when the features find nothing\n"
-    "                                        (small coarse DSMs against fine ones; default gradient,\n"
-    "                                        the measured best; heights the earlier search)\n"
-    "  --no-refine-surface                   keep the Helmert of the matches, without the robust\n"
-    "                                        least-squares matching of the two surfaces after it\n"
-    "  --no-surface-confirmation             a winner the fallback's search refuses stays refused,\n"
-    "                                        even when the two surfaces confirm it\n"
-    "  --nodata V                            also treat heights equal to V as holes (DSMs without a\n"
-    "                                        nodata tag, e.g. -9999)\n"
-    "  --reproject utm|CRS                   warp both DSMs to this CRS first (utm: the WGS 84 UTM\n"
-    "                                        zone of the master's centre); needed for geographic DSMs\n"
-    "  --threshold PX                        2D RANSAC threshold, DSM pixels (default 10)\n"
-    "  --threads N                           worker threads, 0 = all cores (default 0)\n"
-    "  --seed S                              random seed (default 0)\n"
-    "  --quiet                               no progress on stderr\n";
+using diachron::programs::add_pair_option;
+using diachron::programs::error_text;
+using diachron::programs::Progress;
+using diachron::programs::strict_number;
+
+const char* kDescription =
+    "rough_coregistration: co-registers two epochs from their DSMs (GeoTIFF) and writes the 3D Helmert\n"
+    "that moves the master's frame into the secondary's, X2 = scale R X1 + translation: DIR/helmert.json,\n"
+    "DIR/report.json (counts per hypothesis and stage, timings), DIR/matches.png. DSMs in degrees need\n"
+    "--reproject. Exit status: 0 success, 2 no co-registration found (the reason is printed), 1 bad input\n"
+    "or options.\n";
 
 void write_helmert(const std::string& path, const Helmert3& h) {
   std::ofstream out(path);
@@ -145,97 +137,139 @@ void write_report(const std::string& path, const RoughCoregistrationReport& r, c
       << "}\n}\n";
 }
 
-DsmImageKind parse_image(const std::string& s) {
-  for (DsmImageKind k : {DsmImageKind::kStretch, DsmImageKind::kStretchWallis, DsmImageKind::kHillshade,
-                         DsmImageKind::kMultiHillshade, DsmImageKind::kSlope, DsmImageKind::kLocalRelief})
-    if (s == to_string(k)) return k;
-  DIACHRON_CHECK(false, "unknown --image '" << s << "'");
-  return DsmImageKind::kLocalRelief;
-}
+constexpr DsmImageKind kImageKinds[] = {DsmImageKind::kLocalRelief, DsmImageKind::kSlope, DsmImageKind::kStretch,
+                                        DsmImageKind::kStretchWallis, DsmImageKind::kHillshade,
+                                        DsmImageKind::kMultiHillshade};
+
+// Tile sides and buffers, DSM pixels: GridTilerOptions::check() wants sides > 0 and buffers >= 0;
+// the bound keeps 2 * buffer within an int (a DSM of a million pixels a side is far beyond any).
+constexpr int kMaxTilePx = 1000000;
 
 }  // namespace
 
 int main(int argc, char** argv) {
   std::string master_path, secondary_path, out_dir, matcher_name = "sift", model_path, reproject;
+  std::string image = to_string(RoughCoregistrationOptions{}.image_kind), fallback = "gradient";
   GeoTiffReadOptions read_options;
   RoughCoregistrationOptions options;
-  bool quiet = false;
+  std::pair<int, int> tile{options.master_tiles.tile_width, options.master_tiles.tile_height};
+  std::pair<int, int> buffer{options.master_tiles.buffer_x, options.master_tiles.buffer_y};
+  std::optional<double> nodata;
+  bool quiet = false, verbose = false, no_tiling = false, no_rotations = false, no_scales = false;
+  bool no_refine_surface = false, no_surface_confirmation = false;
+  std::vector<std::string> image_names;
+  for (DsmImageKind k : kImageKinds) image_names.push_back(to_string(k));
+
+  CLI::App app{kDescription, "rough_coregistration"};
+  app.get_formatter()->column_width(34);
+  app.add_option("MASTER_DSM", master_path, "epoch 1's DSM, the one moved")->required();
+  app.add_option("SECONDARY_DSM", secondary_path, "epoch 2's DSM, the reference")->required();
+  app.add_option("--out", out_dir, "output folder (created)")->required()->type_name("DIR");
+  app.add_option("--matcher", matcher_name, "pair matcher: sift (default), rootsift, akaze or xfeat")
+      ->check(CLI::IsMember({"sift", "rootsift", "akaze", "xfeat"}));
+  app.add_option("--model", model_path, "XFeat ONNX file (with --matcher xfeat)")
+      ->check(CLI::ExistingFile)
+      ->type_name("PATH");
+  app.add_option("--image", image, "DSM image: relief, slope (default), stretch, wallis, hillshade or multihillshade")
+      ->check(CLI::IsMember(image_names));
+  app.add_option("--k-sigma", options.dsm_image.k_sigma, "stretch range for stretch/wallis, sigmas (default 2, the paper)")
+      ->check(strict_number<double>(std::numeric_limits<double>::min(), std::numeric_limits<double>::max(),
+                                    "a stretch range > 0 (standard deviations of the heights)"))
+      ->type_name("K");
+  add_pair_option<int>(app, "--tile", tile, 1, kMaxTilePx, 'x', "WxH",
+                       "tile sides in [1, " + std::to_string(kMaxTilePx) + "] px",
+                       "tile size in DSM pixels, buffers included (default 1920x1440, MicMac's; the paper's was 640x480)");
+  add_pair_option<int>(app, "--buffer", buffer, 0, kMaxTilePx, 'x', "BXxBY",
+                       "margins in [0, " + std::to_string(kMaxTilePx) + "] px",
+                       "margin around each tile core, DSM pixels (default 0x0; tiles overlap by 2 * buffer; a match "
+                       "is kept in its master tile's core only)");
+  app.add_flag("--no-tiling", no_tiling, "match the whole DSM images");
+  app.add_flag("--no-rotations", no_rotations, "try 0 degrees only");
+  app.add_flag("--no-scales", no_scales, "no scale hypotheses (coarsened DSMs for resolution gaps)");
+  app.add_option("--fallback", fallback,
+                 "dense correlation search when the features find nothing (small coarse DSMs against fine ones): "
+                 "off, heights (the earlier search) or gradient (default, the measured best)")
+      ->check(CLI::IsMember({"off", "heights", "gradient"}));
+  app.add_flag("--no-refine-surface", no_refine_surface,
+               "keep the Helmert of the matches, without the robust least-squares matching of the two surfaces "
+               "after it");
+  app.add_flag("--no-surface-confirmation", no_surface_confirmation,
+               "a winner the fallback's search refuses stays refused, even when the two surfaces confirm it");
+  app.add_option("--nodata", nodata, "also treat heights equal to V as holes (DSMs without a nodata tag, e.g. -9999)")
+      ->check(strict_number<double>(-1e300, 1e300, "a height"))
+      ->type_name("V");
+  app.add_option("--reproject", reproject,
+                 "warp both DSMs to this CRS first (utm: the WGS 84 UTM zone of the master's centre); "
+                 "needed for geographic DSMs")
+      ->type_name("utm|CRS");
+  app.add_option("--threshold", options.ransac_2d.threshold, "2D RANSAC threshold, DSM pixels (default 10)")
+      ->check(strict_number<double>(std::numeric_limits<double>::min(), std::numeric_limits<double>::max(),
+                                    "a threshold > 0 (DSM pixels)"))
+      ->type_name("PX");
+  app.add_option("--threads", options.threads, "worker threads, 0 = all cores (default 0)")
+      ->check(strict_number<std::size_t>(0, 4096, "a thread count in [0, 4096]"))
+      ->type_name("N");
+  app.add_option("--seed", options.ransac_2d.seed, "random seed (default 0)")
+      ->check(strict_number<std::uint64_t>(0, std::numeric_limits<std::uint64_t>::max(), "a whole number >= 0"))
+      ->type_name("S");
+  app.add_flag("--quiet", quiet, "no progress on stderr");
+  app.add_flag("--verbose", verbose, "errors with the library's internal condition (for bug reports)");
   try {
-    for (int i = 1; i < argc; ++i) {
-      const std::string a = argv[i];
-      auto value = [&]() -> std::string {
-        DIACHRON_CHECK(i + 1 < argc, "missing value after " << a);
-        return argv[++i];
-      };
-      if (a == "--out") out_dir = value();
-      else if (a == "--matcher") matcher_name = value();
-      else if (a == "--model") model_path = value();
-      else if (a == "--image") options.image_kind = parse_image(value());
-      else if (a == "--k-sigma") options.dsm_image.k_sigma = std::stod(value());
-      else if (a == "--tile") {
-        const std::string t = value();
-        const auto x = t.find('x');
-        DIACHRON_CHECK(x != std::string::npos, "--tile wants WxH, got '" << t << "'");
-        options.master_tiles.tile_width = options.secondary_tiles.tile_width = std::stoi(t.substr(0, x));
-        options.master_tiles.tile_height = options.secondary_tiles.tile_height = std::stoi(t.substr(x + 1));
-      } else if (a == "--buffer") {
-        const std::string b = value();
-        const auto x = b.find('x');
-        DIACHRON_CHECK(x != std::string::npos, "--buffer wants BXxBY, got '" << b << "'");
-        options.master_tiles.buffer_x = options.secondary_tiles.buffer_x = std::stoi(b.substr(0, x));
-        options.master_tiles.buffer_y = options.secondary_tiles.buffer_y = std::stoi(b.substr(x + 1));
-      } else if (a == "--no-tiling") options.use_tiling = false;
-      else if (a == "--no-rotations") options.rotation_hypotheses = false;
-      else if (a == "--no-scales") options.scale_hypotheses.enabled = false;
-      else if (a == "--no-refine-surface") options.refine_surface = false;
-      else if (a == "--no-surface-confirmation") options.surface_confirmation = false;
-      else if (a == "--fallback") {
-        const std::string f = value();
-        DIACHRON_CHECK(f == "off" || f == "heights" || f == "gradient",
-                       "--fallback wants off, heights or gradient, got '" << f << "'");
-        options.correlation_fallback = f != "off";
-        // heights: the earlier search (peaks weighed by their share); gradient: the library's defaults.
-        if (f == "heights") {
-          options.correlation_search.signal = CorrelationSignal::heights;
-          options.correlation_search.strength = CorrelationStrength::share;
-        }
-      }
-      else if (a == "--reproject") reproject = value();
-      else if (a == "--nodata") {
-        read_options.assume_untagged_nodata = true;
-        read_options.untagged_nodata = std::stod(value());
-      }
-      else if (a == "--threshold") options.ransac_2d.threshold = std::stod(value());
-      else if (a == "--threads") options.threads = std::stoul(value());
-      else if (a == "--seed") options.ransac_2d.seed = std::stoull(value());
-      else if (a == "--quiet") quiet = true;
-      else if (a == "--help" || a == "-h") {
-        std::cout << kUsage;
-        return 0;
-      } else if (!a.empty() && a[0] == '-') DIACHRON_CHECK(false, "unknown option " << a);
-      else if (master_path.empty()) master_path = a;
-      else if (secondary_path.empty()) secondary_path = a;
-      else DIACHRON_CHECK(false, "unexpected argument " << a);
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    if (e.get_exit_code() == 0) {
+      std::cout << app.help();
+      return 0;
     }
-    DIACHRON_CHECK(!master_path.empty() && !secondary_path.empty() && !out_dir.empty(),
-                   "two DSM files and --out DIR are required");
+    std::fprintf(stderr, "rough_coregistration: %s\n(rough_coregistration --help lists the options)\n", e.what());
+    return 1;
+  }
+  try {
+    for (DsmImageKind k : kImageKinds)
+      if (image == to_string(k)) options.image_kind = k;
+    options.master_tiles.tile_width = options.secondary_tiles.tile_width = tile.first;
+    options.master_tiles.tile_height = options.secondary_tiles.tile_height = tile.second;
+    options.master_tiles.buffer_x = options.secondary_tiles.buffer_x = buffer.first;
+    options.master_tiles.buffer_y = options.secondary_tiles.buffer_y = buffer.second;
+    options.use_tiling = !no_tiling;
+    options.rotation_hypotheses = !no_rotations;
+    options.scale_hypotheses.enabled = !no_scales;
+    options.refine_surface = !no_refine_surface;
+    options.surface_confirmation = !no_surface_confirmation;
+    options.correlation_fallback = fallback != "off";
+    // heights: the earlier search (peaks weighed by their share); gradient: the library's defaults.
+    if (fallback == "heights") {
+      options.correlation_search.signal = CorrelationSignal::heights;
+      options.correlation_search.strength = CorrelationStrength::share;
+    }
+    if (nodata) {
+      read_options.assume_untagged_nodata = true;
+      read_options.untagged_nodata = *nodata;
+    }
+    // Before any work, in the options' words: the tiles must keep a core, and xfeat needs its model.
+    if (options.use_tiling) {
+      const GridTilerOptions& t = options.master_tiles;
+      DIACHRON_CHECK(t.core_width() > 0 && t.core_height() > 0,
+                     "--tile " << t.tile_width << "x" << t.tile_height << " --buffer " << t.buffer_x << "x"
+                               << t.buffer_y << ": the tile core (tile - 2 * buffer) must be positive, got "
+                               << t.core_width() << " x " << t.core_height());
+    }
+    DIACHRON_CHECK(matcher_name != "xfeat" || !model_path.empty(),
+                   "--matcher xfeat needs --model PATH (the XFeat ONNX file)");
     options.check();
     if (options.use_tiling) {
       options.master_tiles.check();
       options.secondary_tiles.check();
     }
-    if (!quiet)
-      options.progress = [clock = std::make_shared<ProgressClock>()](const ProgressEvent& e) {
-        // Padded: a line shorter than the one it overwrites leaves no tail behind.
-        std::fprintf(stderr, "\r%-72s", progress_line(e, (*clock)(e)).c_str());
-        if (e.done >= e.total) std::fprintf(stderr, "\n");
-      };
+    if (!quiet) options.progress = Progress::callback();
     Dsm master = read_geotiff_dsm(master_path, read_options);
     Dsm secondary = read_geotiff_dsm(secondary_path, read_options);
     for (const auto& [dsm, path] : {std::pair<const Dsm*, std::string>{&master, master_path}, {&secondary, secondary_path}})
-      if (const std::optional<double> v = suspected_untagged_nodata(*dsm); v && !read_options.assume_untagged_nodata)
+      if (const std::optional<double> v = suspected_untagged_nodata(*dsm); v && !read_options.assume_untagged_nodata) {
+        Progress::break_line();
         std::fprintf(stderr, "warning: '%s' has heights of %g far below all others and no nodata tag for them: "
                              "if they are holes, pass --nodata %g\n", path.c_str(), *v, *v);
+      }
     // "frame": what the Helmert's coordinates are, for the reader of report.json.
     std::string frame = "the DSMs' own CRSs";
     if (!reproject.empty()) {
@@ -260,10 +294,7 @@ int main(int argc, char** argv) {
     } else if (matcher_name == "akaze") {
       report = rough_coregistration(master, secondary, ExtractorPairMatcher<AkazeExtractor>(AkazeExtractor{}), options);
     } else if (matcher_name == "xfeat") {
-      DIACHRON_CHECK(!model_path.empty(), "--matcher xfeat needs --model PATH (the XFeat ONNX file)");
       report = rough_coregistration(master, secondary, XFeatPairMatcher(model_path), options);
-    } else {
-      DIACHRON_CHECK(false, "unknown --matcher '" << matcher_name << "'");
     }
 
     write_report(out_dir + "/report.json", report, matcher_name, frame);
@@ -293,7 +324,8 @@ int main(int argc, char** argv) {
                 rad_to_deg(std::atan2(h.rotation(1, 0), h.rotation(0, 0))), report.rms_3d, report.seconds.total);
     return 0;
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "rough_coregistration: %s\n%s", e.what(), kUsage);
+    Progress::break_line();
+    std::fprintf(stderr, "rough_coregistration: %s\n", error_text(e, verbose).c_str());
     return 1;
   }
 }

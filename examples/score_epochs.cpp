@@ -1,7 +1,7 @@
 // score_epochs: judges what `match_epochs --adjust` wrote for a scene that `make_scene` wrote, against
 // the scene's truth, and prints the paper's table for every free epoch.
 //
-//   score_epochs SCENE_DIR OUT_DIR [--check]
+//   score_epochs SCENE_DIR OUT_DIR [--check] [--verbose]
 //
 // SCENE_DIR is make_scene's folder (the epoch folders and truth/), OUT_DIR match_epochs' --out, run
 // with the scene's last epoch as the reference (match_epochs' default). Each free epoch's check
@@ -18,17 +18,24 @@
 // (one camera per epoch; B1 and B2 are per image). With --check it also requires the targets of
 // docs/adjustment.md for every free epoch: the adjusted RMS at least 3 times smaller than the rough
 // one and below 1.5 of the epoch's GSD.
-// Exit status: 0 success (and PASS with --check), 1 when a requirement fails, 2 on unreadable input.
+// Exit status: 0 success (and PASS with --check), 1 when a requirement fails, 2 on unreadable input
+// or bad options (errors without the library's internal condition unless --verbose).
 
 #include <cmath>
 #include <cstdio>
+#include <exception>
 #include <fstream>
+#include <iostream>
 #include <map>
 #include <optional>
 #include <sstream>
 #include <string>
 #include <utility>
 #include <vector>
+
+#include <CLI/CLI.hpp>
+
+#include "program_support.hpp"
 
 #include <diachron/adjustment/triangulation.hpp>
 #include <diachron/eval/check_points.hpp>
@@ -95,36 +102,37 @@ std::pair<double, double> dod_placement_error(const Dsm& reference, const Dsm& m
   return {s.median, s.rms};
 }
 
-const char* kUsage =
-    "usage: score_epochs SCENE_DIR OUT_DIR [--check]\n"
-    "  SCENE_DIR: what make_scene wrote; OUT_DIR: what match_epochs --adjust wrote for its epoch folders\n"
-    "  (the last epoch the reference). Prints each free epoch's check points (rough only, full pipeline)\n"
-    "  and camera against the truth.\n"
-    "  Epochs of the scene that OUT_DIR does not hold (a run on some of them) are skipped.\n"
-    "  --check   also require every free epoch's adjusted check points 3 times closer than the rough\n"
-    "            ones and within 1.5 of its GSD (exit 1 otherwise)\n";
+const char* kDescription =
+    "score_epochs: judges what match_epochs --adjust wrote (OUT_DIR) for the epoch folders of a scene that\n"
+    "make_scene wrote (SCENE_DIR), the scene's last epoch the reference, against the scene's truth. Prints\n"
+    "each free epoch's check points (rough only, full pipeline) and camera against the truth. Epochs of the\n"
+    "scene that OUT_DIR does not hold (a run on some of them) are skipped.\n"
+    "Exit status: 0 success (and PASS with --check), 1 when a requirement fails, 2 on unreadable input or\n"
+    "bad options.\n";
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::vector<std::string> positional;
-  bool check = false;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--check") check = true;
-    else if (a == "--help" || a == "-h") {
-      std::printf("%s", kUsage);
+  std::string scene_dir, out_dir;
+  bool check = false, verbose = false;
+  CLI::App app{kDescription, "score_epochs"};
+  app.get_formatter()->column_width(34);
+  app.add_option("SCENE_DIR", scene_dir, "what make_scene wrote")->required();
+  app.add_option("OUT_DIR", out_dir, "what match_epochs --adjust wrote for its epoch folders")->required();
+  app.add_flag("--check", check,
+               "also require every free epoch's adjusted check points 3 times closer than the rough ones and "
+               "within 1.5 of its GSD (exit 1 otherwise)");
+  app.add_flag("--verbose", verbose, "errors with the library's internal condition (for bug reports)");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    if (e.get_exit_code() == 0) {
+      std::cout << app.help();
       return 0;
-    } else if (!a.empty() && a[0] == '-') {
-      std::fprintf(stderr, "score_epochs: unknown option %s\n%s", a.c_str(), kUsage);
-      return 2;
-    } else positional.push_back(a);
-  }
-  if (positional.size() != 2) {
-    std::fprintf(stderr, "%s", kUsage);
+    }
+    std::fprintf(stderr, "score_epochs: %s\n(score_epochs --help lists the options)\n", e.what());
     return 2;
   }
-  const std::string scene_dir = positional[0], out_dir = positional[1];
   try {
     const Scene scene = read_scene(scene_dir);
     if (scene.epochs.size() < 2) return fail("the scene has " + std::to_string(scene.epochs.size()) + " epoch(s)");
@@ -253,7 +261,7 @@ int main(int argc, char** argv) {
     }
     return 0;
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "score_epochs: %s\n", e.what());
+    std::fprintf(stderr, "score_epochs: %s\n", diachron::programs::error_text(e, verbose).c_str());
     return 2;
   }
 }
