@@ -137,16 +137,7 @@ int main(int argc, char** argv) {
       ->check(strict_number<std::size_t>(3, 10000000, "a count in [3, 10000000]"));
   app.add_option("seed", seed, "random seed (default 1)")
       ->check(strict_number<std::uint64_t>(0, std::numeric_limits<std::uint64_t>::max(), "a whole number >= 0"));
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    if (e.get_exit_code() == 0) {
-      std::cout << app.help();
-      return 0;
-    }
-    std::fprintf(stderr, "estimators: %s\n(estimators --help lists the arguments)\n", e.what());
-    return 2;
-  }
+  if (const std::optional<int> status = diachron::programs::parse_options(app, argc, argv, 2)) return *status;
   // The outliers the ratio asks for, bounded as the inliers are (a ratio near 1 asks for billions).
   const double wanted = static_cast<double>(inliers) * outlier_ratio / (1.0 - outlier_ratio);
   if (!(wanted <= 1e7)) {

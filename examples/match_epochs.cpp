@@ -1090,16 +1090,7 @@ int main(int argc, char** argv) {
       ->check(strict_number<std::size_t>(0, 4096, "a thread count in [0, 4096]"));
   app.add_flag("--quiet", quiet, "no progress on stderr");
   app.add_flag("--verbose", verbose, "errors with the library's internal condition (for bug reports)");
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    if (e.get_exit_code() == 0) {
-      std::cout << app.help();
-      return 0;
-    }
-    std::fprintf(stderr, "match_epochs: %s\n(match_epochs --help lists the options)\n", e.what());
-    return 1;
-  }
+  if (const std::optional<int> status = diachron::programs::parse_options(app, argc, argv, 1)) return *status;
   std::optional<OutputFolder> output;
   try {
     DIACHRON_CHECK(dirs.size() >= 2, "two epoch folders or more are needed, " << dirs.size() << " given");

@@ -110,6 +110,23 @@ CLI::Option* add_pair_option(CLI::App& app, const std::string& name, std::pair<T
       ->type_name(form);
 }
 
+// Parses the command line into `app`: nullopt to go on, or the exit status to return at once (0
+// after printing the help; `failure` after printing the error on one line with a hint to --help).
+inline std::optional<int> parse_options(CLI::App& app, int argc, char** argv, int failure) {
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    if (e.get_exit_code() == 0) {
+      std::fputs(app.help().c_str(), stdout);
+      return 0;
+    }
+    std::fprintf(stderr, "%s: %s\n(%s --help lists the options)\n", app.get_name().c_str(), e.what(),
+                 app.get_name().c_str());
+    return failure;
+  }
+  return std::nullopt;
+}
+
 // The message of an exception for the people who run a program: diachron::Error's message()
 // (without the library's internal condition), or its what() when `verbose` (for bug reports).
 inline std::string error_text(const std::exception& e, bool verbose) {

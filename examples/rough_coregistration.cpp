@@ -214,16 +214,7 @@ int main(int argc, char** argv) {
       ->type_name("S");
   app.add_flag("--quiet", quiet, "no progress on stderr");
   app.add_flag("--verbose", verbose, "errors with the library's internal condition (for bug reports)");
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    if (e.get_exit_code() == 0) {
-      std::cout << app.help();
-      return 0;
-    }
-    std::fprintf(stderr, "rough_coregistration: %s\n(rough_coregistration --help lists the options)\n", e.what());
-    return 1;
-  }
+  if (const std::optional<int> status = diachron::programs::parse_options(app, argc, argv, 1)) return *status;
   try {
     for (DsmImageKind k : kImageKinds)
       if (image == to_string(k)) options.image_kind = k;

@@ -123,16 +123,7 @@ int main(int argc, char** argv) {
                "also require every free epoch's adjusted check points 3 times closer than the rough ones and "
                "within 1.5 of its GSD (exit 1 otherwise)");
   app.add_flag("--verbose", verbose, "errors with the library's internal condition (for bug reports)");
-  try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    if (e.get_exit_code() == 0) {
-      std::cout << app.help();
-      return 0;
-    }
-    std::fprintf(stderr, "score_epochs: %s\n(score_epochs --help lists the options)\n", e.what());
-    return 2;
-  }
+  if (const std::optional<int> status = diachron::programs::parse_options(app, argc, argv, 2)) return *status;
   try {
     const Scene scene = read_scene(scene_dir);
     if (scene.epochs.size() < 2) return fail("the scene has " + std::to_string(scene.epochs.size()) + " epoch(s)");
