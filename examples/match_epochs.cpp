@@ -1728,13 +1728,9 @@ int main(int argc, char** argv) {
 #endif
     std::printf("trust: %s%s\n", trust.c_str(), trust_reasons.empty() ? "" : " (report.json's \"trust\" says why)");
     return finish(0);
-  } catch (const Error& e) {
-    Progress::break_line();
-    std::fprintf(stderr, "match_epochs: %s\n", verbose ? e.what() : e.message().c_str());
-    return 1;
   } catch (const std::exception& e) {
     Progress::break_line();
-    std::fprintf(stderr, "match_epochs: %s\n", e.what());
+    std::fprintf(stderr, "match_epochs: %s\n", diachron::programs::error_text(e, verbose).c_str());
     return 1;
   }
 }

@@ -153,13 +153,19 @@ inline EpochFolderCheck check_epoch_folder(const EpochFolder& epoch, const Epoch
   }
   if (epoch.is_ortho() || epoch.images.empty() || epoch.dsm.empty()) return out;
 
-  // Footprints: a grid of each image's pixels, their rays met with the DSM.
+  // Footprints: a grid of each image's pixels, their rays met with the DSM. And the images' GSD at
+  // the DSM's mean height for the model's tolerance (a model offset vertically would bias a GSD
+  // taken on its own points).
   const int n = options.footprint_grid;
   std::size_t missing = 0, weak = 0;
   std::string first_weak;
   double weakest = 1.0;
+  std::vector<double> gsd;
+  const double ground = epoch.dsm.statistics().mean;
   for (const EpochImage& image : epoch.images) {
     const EpochFrame frame = image.epoch_frame();
+    const Eigen::Vector2d centre((image.width() - 1) / 2.0, (image.height() - 1) / 2.0);
+    if (const std::optional<double> g = gsd_at_height(frame, ground, centre); g && std::isfinite(*g)) gsd.push_back(*g);
     std::size_t hit = 0;
     for (int gy = 0; gy < n; ++gy)
       for (int gx = 0; gx < n; ++gx) {
@@ -192,15 +198,7 @@ inline EpochFolderCheck check_epoch_folder(const EpochFolder& epoch, const Epoch
                           "extend the DSM over every image, or expect fewer pairs for those images"});
   }
 
-  // The model's points against the DSM, the tolerance scaled by the images' GSD at the DSM's mean
-  // height (a model offset vertically would bias a GSD taken on its own points).
-  std::vector<double> gsd;
-  const double ground = epoch.dsm.statistics().mean;
-  for (const EpochImage& image : epoch.images) {
-    const EpochFrame frame = image.epoch_frame();
-    const Eigen::Vector2d centre((image.width() - 1) / 2.0, (image.height() - 1) / 2.0);
-    if (const std::optional<double> g = gsd_at_height(frame, ground, centre); g && std::isfinite(*g)) gsd.push_back(*g);
-  }
+  // The model's points against the DSM, the tolerance scaled by the images' median GSD.
   if (!gsd.empty()) {
     std::nth_element(gsd.begin(), gsd.begin() + static_cast<std::ptrdiff_t>(gsd.size() / 2), gsd.end());
     out.gsd = gsd[gsd.size() / 2];
