@@ -4,6 +4,10 @@
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 "$root/scripts/install_deps.sh" --peers
+# Slurm and munge for the cluster tests (tests/support/slurm_smoke.sh, match_epochs_slurm.sh: each
+# starts its own single-node cluster in a temporary folder and stops it; skipped, with the reason,
+# when it cannot start).
+"$root/scripts/slurm_cluster.sh" install || echo "diachron: Slurm could not be installed; the Slurm tests are skipped"
 jobs=$(nproc)
 sanitize=1
 [ "${1:-}" = "--no-sanitize" ] && sanitize=0
