@@ -7,13 +7,14 @@
 ///   make_scene OUT_DIR [--preset plain|decades] [--seed N] [--dem PATH] [--images-per-epoch RxC]
 ///              [--image-size WxH] [--epochs N] [--check-points N] [--dome M] [--offset X,Y]
 ///              [--scan-frame PX] [--control-points N] [--ortho-reference] [--model-offset NAME=DX,DY,DZ]
-///              [--micmac] [--threads N]
+///              [--micmac] [--scan-px N] [--threads N]
 ///
 /// `--preset decades` starts from SceneOptions::decades_apart(N) (`--epochs N`, 2 to 5, default 2)
 /// and the other flags apply on top of it, so that `make_scene OUT --preset decades --seed S` writes
 /// exactly the scene generate_scene() makes from decades_apart() with seed S. `--ortho-reference`
 /// then delivers the last epoch as a true orthophoto and its true surface (synth/ortho_reference.hpp)
-/// instead of images and a model.
+/// instead of images and a model. `--scan-px N` writes the film epochs as square N x N scans and every
+/// epoch N / (film width) times larger than rendered (synth/full_size_scan.hpp), one image at a time.
 
 #include <algorithm>
 #include <cctype>
@@ -39,6 +40,7 @@
 #include <diachron/io/dsm_reproject.hpp>
 #include <diachron/io/folders.hpp>
 #include <diachron/io/geotiff.hpp>
+#include <diachron/synth/full_size_scan.hpp>
 #include <diachron/synth/ortho_reference.hpp>
 #include <diachron/synth/scan_frame.hpp>
 #include <diachron/synth/scene.hpp>
@@ -84,6 +86,13 @@ constexpr const char* kUsage =
     "                           and AutoCal-<epoch>-0.xml) and OUT/<epoch>/Homol/ (every pair of observations\n"
     "                           of each tie point, both directions); images/, dsm.tif and the truth as\n"
     "                           without it (not with --model-offset)\n"
+    "  --scan-px N              full-size scans: the film epochs (all but the last) become square, rendered\n"
+    "                           W x W (W their width, 1600 with the decades preset, or --image-size's) and\n"
+    "                           written N x N; every epoch is written k = N / W times larger than rendered\n"
+    "                           (cameras, truth pixels scaled; the recent epoch keeps its finer GSD), each\n"
+    "                           image rebuilt from the ground position of its rendered pixels with a fine\n"
+    "                           ground texture and the film's look at full size (synth/full_size_scan.hpp);\n"
+    "                           N >= W, k W and k H whole (not with --scan-frame nor --ortho-reference)\n"
     "  --threads N              worker threads, 0 = all cores (default 0)\n";
 
 // Flags that are not given leave the preset's value alone.
@@ -98,6 +107,7 @@ struct Arguments {
   std::optional<std::pair<double, double>> offset;
   int scan_frame_px = 0;
   int control_points = 0;
+  int scan_px = 0;
   bool ortho_reference = false;
   bool micmac = false;
   std::optional<std::pair<std::string, diachron::Vec3>> model_offset;  // --model-offset NAME=DX,DY,DZ
@@ -187,6 +197,9 @@ Arguments parse(int argc, char** argv) {
       } else if (arg == "--scan-frame") {
         a.scan_frame_px = parse_number<int>(value, arg);
         if (a.scan_frame_px < 0) usage_error("--scan-frame must be >= 0");
+      } else if (arg == "--scan-px") {
+        a.scan_px = parse_number<int>(value, arg);
+        if (a.scan_px < 16 || a.scan_px > 100000) usage_error("--scan-px must be in [16, 100000]");
       } else if (arg == "--control-points") {
         a.control_points = parse_number<int>(value, arg);
         if (a.control_points < 0) usage_error("--control-points must be >= 0");
@@ -216,6 +229,8 @@ Arguments parse(int argc, char** argv) {
   if (a.ortho_reference && a.epochs && *a.epochs < 2) usage_error("--ortho-reference needs at least two epochs");
   // --model-offset edits the written COLMAP model, which a MicMac epoch does not have.
   if (a.micmac && a.model_offset) usage_error("--model-offset moves a COLMAP model: not with --micmac");
+  if (a.scan_px > 0 && (a.scan_frame_px > 0 || a.ortho_reference))
+    usage_error("--scan-px is not available with --scan-frame nor --ortho-reference");
   return a;
 }
 
@@ -258,8 +273,79 @@ diachron::SceneOptions scene_options(const Arguments& args) {
     if (args.dome) epoch.dsm.dome_m = *args.dome;
     if (args.flying_height) epoch.set_flying_height_keeping_gsd(*args.flying_height);
   }
+  // Film frames are square (23 x 23 cm): the film epochs are rendered W x W.
+  if (args.scan_px > 0)
+    for (std::size_t e = 0; e + 1 < std::max<std::size_t>(options.epochs.size(), 2); ++e)
+      options.epochs[e].image_height_px = options.epochs[e].image_width_px;
   return options;
 }
+
+// The factor of --scan-px: written pixels per rendered pixel, from the first (film) epoch's width.
+double scan_scale(const Arguments& args, const diachron::SceneOptions& options) {
+  const double k = static_cast<double>(args.scan_px) / options.epochs.front().image_width_px;
+  if (k < 1.0)
+    usage_error("--scan-px " + std::to_string(args.scan_px) + " is below the rendered width " +
+                std::to_string(options.epochs.front().image_width_px) + " px");
+  for (const diachron::EpochOptions& e : options.epochs) {
+    const double w = k * e.image_width_px, h = k * e.image_height_px;
+    if (std::abs(w - std::round(w)) > 1e-9 * w || std::abs(h - std::round(h)) > 1e-9 * h)
+      usage_error("--scan-px " + std::to_string(args.scan_px) + ": epoch " + e.name + "'s " +
+                  std::to_string(e.image_width_px) + " x " + std::to_string(e.image_height_px) + " px times " +
+                  std::to_string(k) + " is not whole; choose N so that it is");
+  }
+  return k;
+}
+
+// Writes full-size scans band by band into a GDAL memory image, then as PNG (fast deflate): one
+// image at a time, so the scene never holds its full-size images. Caches the current epoch's renderer.
+class ScanWriter {
+ public:
+  ScanWriter(const diachron::Scene& scene, const diachron::SceneOptions& options, double scale)
+      : scene_(scene), options_(options) {
+    scan_.scale = scale;
+    scan_.threads = options.threads;
+  }
+
+  void operator()(std::size_t epoch, std::size_t image, const std::string& path) {
+    if (!renderer_ || epoch_ != epoch) {
+      renderer_.reset();
+      renderer_.emplace(scene_, epoch, options_.epochs.at(epoch).look, scan_);
+      epoch_ = epoch;
+    }
+    const auto t0 = std::chrono::steady_clock::now();
+    diachron::detail::gdal_register_once();
+    const diachron::detail::QuietGdalErrors quiet;
+    GDALDriver* mem = GetGDALDriverManager()->GetDriverByName("MEM");
+    GDALDriver* png = GetGDALDriverManager()->GetDriverByName("PNG");
+    if (!mem || !png) throw diachron::Error("cannot write '" + path + "': GDAL has no MEM or PNG driver");
+    const int w = renderer_->width(), h = renderer_->height();
+    diachron::detail::GdalDatasetPtr tmp(mem->Create("", w, h, 1, GDT_Byte, nullptr));
+    if (!tmp) throw diachron::Error("cannot write '" + path + "': cannot allocate " + std::to_string(w) + " x " +
+                                    std::to_string(h) + " px");
+    renderer_->render(image, [&](int first_row, const diachron::Raster<std::uint8_t>& band) {
+      const CPLErr err = tmp->GetRasterBand(1)->RasterIO(GF_Write, 0, first_row, w, band.height(),
+                                                         const_cast<std::uint8_t*>(band.data()), w, band.height(),
+                                                         GDT_Byte, 0, 0, nullptr);
+      if (err != CE_None) throw diachron::Error("cannot write '" + path + "': copy failed");
+    });
+    const auto t1 = std::chrono::steady_clock::now();
+    char** create = CSLSetNameValue(nullptr, "ZLEVEL", "1");
+    diachron::detail::GdalDatasetPtr out(png->CreateCopy(path.c_str(), tmp.get(), FALSE, create, nullptr, nullptr));
+    CSLDestroy(create);
+    if (!out) throw diachron::Error("cannot write '" + path + "'" + diachron::detail::QuietGdalErrors::last_message());
+    diachron::detail::close_written(out, path);
+    const auto t2 = std::chrono::steady_clock::now();
+    std::fprintf(stderr, "make_scene: %s %dx%d px: rendered in %.1f s, PNG in %.1f s\n", path.c_str(), w, h,
+                 std::chrono::duration<double>(t1 - t0).count(), std::chrono::duration<double>(t2 - t1).count());
+  }
+
+ private:
+  const diachron::Scene& scene_;
+  const diachron::SceneOptions& options_;
+  diachron::FullSizeScanOptions scan_;
+  std::optional<diachron::FullSizeEpochRenderer> renderer_;
+  std::size_t epoch_ = 0;
+};
 
 // Writes the check points seen in 2 or more images of the first epoch as two files of
 // io/control_points.hpp's layout: the first `count` to `control_path`, the others to `check_path`.
@@ -319,9 +405,11 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "make_scene: %s is in degrees; reprojected to %s\n", args.dem->c_str(), utm.c_str());
     }
 
+    const double scale = args.scan_px > 0 ? scan_scale(args, options) : 1.0;
     const auto t0 = std::chrono::steady_clock::now();
     const std::clock_t c0 = std::clock();
     diachron::Scene scene = diachron::generate_scene(options);
+    if (args.scan_px > 0) diachron::scale_scene_images(scene, scale);
     if (args.ortho_reference) {
       diachron::OrthoReferenceOptions ortho;
       ortho.threads = args.threads;
@@ -349,7 +437,15 @@ int main(int argc, char** argv) {
     }
     diachron::SceneWriteOptions write;
     if (args.micmac) write.format = diachron::SceneEpochFormat::micmac;
+    std::optional<ScanWriter> scans;
+    if (args.scan_px > 0) {
+      scans.emplace(scene, options, scale);
+      write.write_image = [&scans](std::size_t e, std::size_t i, const std::string& path) { (*scans)(e, i, path); };
+    }
+    const auto w0 = std::chrono::steady_clock::now();
     diachron::write_scene(scene, args.out_dir, write);
+    scans.reset();
+    const double write_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - w0).count();
     if (args.model_offset) {
       // The written model is moved, not the scene: the truth keeps the epoch where it is.
       const std::string dir = args.out_dir + "/" + args.model_offset->first;
@@ -377,6 +473,8 @@ int main(int argc, char** argv) {
     std::printf("scene written to %s (preset %s, seed %llu, generated in %.2f s, %.2f s of CPU)\n",
                 args.out_dir.c_str(), args.preset.c_str(), static_cast<unsigned long long>(scene.seed), seconds,
                 cpu_seconds);
+    if (args.scan_px > 0)
+      std::printf("full-size scans: %g x the rendered size, scene written in %.1f s\n", scale, write_seconds);
     std::printf("world: X [%.1f, %.1f] Y [%.1f, %.1f] m, reference height %.1f m, %zu buildings and %zu trees "
                 "over all epochs\n",
                 scene.bounds.min_x, scene.bounds.max_x, scene.bounds.min_y, scene.bounds.max_y, scene.reference_height_m,

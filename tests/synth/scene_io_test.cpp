@@ -23,6 +23,7 @@
 #include <diachron/io/epoch_folder.hpp>
 #include <diachron/io/folders.hpp>
 #include <diachron/io/helmert_json.hpp>
+#include <diachron/synth/full_size_scan.hpp>
 #include <diachron/synth/scene_io.hpp>
 
 #include "support/colmap_binary.hpp"
@@ -136,6 +137,45 @@ TEST_CASE("write_scene then read_scene gives the same scene", "[synth][io]") {
     }
   }
   CHECK(back.epoch2_from_epoch1().matrix().isApprox(scene.epoch2_from_epoch1().matrix(), 1e-14));
+}
+
+TEST_CASE("write_scene: full-size scans come from the write_image callback and read back", "[synth][io]") {
+  // The small scene delivered twice as large (make_scene --scan-px): images made by
+  // FullSizeEpochRenderer one at a time, the scaled truth and models beside them.
+  const SceneOptions options = diachron::test::small_scene_options(21, 80, 20);
+  Scene scene = io_small_scene();
+  scale_scene_images(scene, 2.0);
+  FullSizeScanOptions scan;
+  scan.scale = 2.0;
+  std::vector<Raster<std::uint8_t>> written;
+  SceneWriteOptions write;
+  write.write_image = [&](std::size_t e, std::size_t i, const std::string& path) {
+    const FullSizeEpochRenderer renderer(scene, e, options.epochs[e].look, scan);
+    written.push_back(renderer.render(i));
+    write_image_u8(written.back(), path);
+  };
+  const std::string dir = temp_folder("full_size");
+  write_scene(scene, dir, write);
+  REQUIRE(written.size() == 4);
+  const Scene back = read_scene(dir);
+  std::size_t k = 0;
+  for (std::size_t e = 0; e < scene.epochs.size(); ++e) {
+    check_camera(scene.epochs[e].camera, back.epochs[e].camera);
+    CHECK(back.epochs[e].camera.width() == 2 * io_small_scene().epochs[e].camera.width());
+    check_camera_via_colmap(scene.epochs[e].estimated_camera, back.epochs[e].estimated_camera);
+    CHECK(back.epochs[e].gsd_m == scene.epochs[e].gsd_m);
+    for (std::size_t i = 0; i < scene.epochs[e].images.size(); ++i, ++k) {
+      const Raster<std::uint8_t>& b = back.epochs[e].images[i].pixels;
+      REQUIRE(b.width() == written[k].width());
+      CHECK(std::equal(b.begin(), b.end(), written[k].begin()));
+    }
+    for (std::size_t t = 0; t < scene.epochs[e].tie_points.size(); ++t)
+      CHECK((back.epochs[e].tie_points[t].observations.front().pixel -
+             scene.epochs[e].tie_points[t].observations.front().pixel).norm() < 1e-12);
+  }
+  REQUIRE(back.check_points.size() == scene.check_points.size());
+  for (std::size_t c = 0; c < scene.check_points.size(); ++c)
+    CHECK(back.check_points[c].observations.front().pixel == scene.check_points[c].observations.front().pixel);
 }
 
 TEST_CASE("write_scene: each epoch folder holds what its SfM delivers, the truth is apart", "[synth][io]") {

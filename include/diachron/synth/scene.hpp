@@ -449,6 +449,7 @@ enum class SynthStream : std::uint64_t {
   texture = 9,
   landscape = 10,
   orthophoto = 11,
+  full_size = 12,  // synth/full_size_scan.hpp
 };
 
 inline std::uint64_t stream_id(SynthStream purpose, std::uint64_t epoch, std::uint64_t item = 0) {

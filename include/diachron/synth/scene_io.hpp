@@ -28,6 +28,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <fstream>
+#include <functional>
 #include <iomanip>
 #include <limits>
 #include <locale>
@@ -79,6 +80,11 @@ enum class SceneEpochFormat {
 /// Options of write_scene. Default: the COLMAP layout, byte for byte what write_scene always wrote.
 struct SceneWriteOptions {
   SceneEpochFormat format = SceneEpochFormat::colmap;
+  /// When set, writes image `image` of epoch `epoch` (indices) to `path` (OUT/<epoch>/images/<name>.png)
+  /// instead of write_image_u8(pixels, path): the full-size scans of make_scene --scan-px
+  /// (synth/full_size_scan.hpp) are made there, one at a time, rather than held by the scene. It
+  /// must write what the epoch's camera sees, at the camera's size.
+  std::function<void(std::size_t epoch, std::size_t image, const std::string& path)> write_image;
 };
 
 namespace detail {
@@ -301,7 +307,11 @@ inline ColmapModel colmap_model_of_epoch(const SyntheticEpoch& epoch) {
     if (!tie.observations.empty()) {
       const ImageObservation& first = tie.observations.front();
       const Raster<std::uint8_t>& pixels = epoch.images[static_cast<std::size_t>(first.image)].pixels;
-      const int x = static_cast<int>(std::lround(first.pixel.x())), y = static_cast<int>(std::lround(first.pixel.y()));
+      Vec2 at = first.pixel;
+      // Images kept smaller than the camera (full-size scans written apart): the same spot there.
+      if (pixels.width() != epoch.camera.width() && epoch.camera.width() > 0)
+        at = (at + Vec2(0.5, 0.5)) * (static_cast<double>(pixels.width()) / epoch.camera.width()) - Vec2(0.5, 0.5);
+      const int x = static_cast<int>(std::lround(at.x())), y = static_cast<int>(std::lround(at.y()));
       if (pixels.contains(x, y)) point.rgb = {pixels(x, y), pixels(x, y), pixels(x, y)};
     }
     model.points3d.emplace(point.id, std::move(point));
@@ -427,11 +437,16 @@ inline void write_scene(const Scene& scene, const std::string& directory, const 
     }
     detail::write_scene_camera(out, "camera", epoch.camera);
     out << "images " << epoch.images.size() << '\n';
-    for (const SyntheticImage& image : epoch.images) {
+    for (std::size_t i = 0; i < epoch.images.size(); ++i) {
+      const SyntheticImage& image = epoch.images[i];
       out << "image " << image.name << ' ' << image.row << ' ' << image.column << '\n';
       detail::write_scene_pose(out, "pose_world", image.pose_world);
       detail::write_scene_pose(out, "pose_epoch", image.pose_epoch);
-      write_image_u8(image.pixels, epoch_dir + "/images/" + image.name + ".png");
+      const std::string path = epoch_dir + "/images/" + image.name + ".png";
+      if (options.write_image)
+        options.write_image(static_cast<std::size_t>(&epoch - scene.epochs.data()), i, path);
+      else
+        write_image_u8(image.pixels, path);
     }
     // Tie points are the COLMAP model's 3D points (same order, ids from 1); the truth adds where
     // they are in the world.
