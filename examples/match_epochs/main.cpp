@@ -54,6 +54,7 @@
 #include <ctime>
 #include <filesystem>
 #include <thread>
+#include <tuple>
 #include <type_traits>
 #include <cstdlib>
 #include <cstdint>

@@ -86,8 +86,20 @@ JobsOutcome run_jobs(Run& run, const std::string& plan_dir, const std::string& p
   JobsOutcome out;
   std::vector<std::string> errors(indices.size());
   std::vector<std::uint8_t> skipped(indices.size(), 0);
+  // The jobs one image's pairs after another (each epoch pair's by master image, then secondary), so
+  // that the cache serves an image to its next pairs; results go by index whatever the order.
+  std::vector<std::size_t> order(indices.size());
+  for (std::size_t n = 0; n < order.size(); ++n) order[n] = n;
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) {
+    const Job& a = all[indices[x]];
+    const Job& b = all[indices[y]];
+    const ImagePairOverlap& pa = run.pairs[a.pair].overlap.pairs[a.k];
+    const ImagePairOverlap& pb = run.pairs[b.pair].overlap.pairs[b.k];
+    return std::tie(a.pair, pa.master, pa.secondary) < std::tie(b.pair, pb.master, pb.secondary);
+  });
   ProgressReporter reporter(quiet ? ProgressCallback() : progress, "precise matching (pairs)", indices.size());
-  parallel_for(indices.size(), threads, [&](std::size_t n) {
+  parallel_for(indices.size(), threads, [&](std::size_t m) {
+    const std::size_t n = order[m];
     const std::size_t index = indices[n];
     try {
       const Job job = all[index];
