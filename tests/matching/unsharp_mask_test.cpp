@@ -1,4 +1,5 @@
-// Tests for matching/unsharp_mask.hpp: against a brute-force 2D convolution with mirrored edges;
+// Tests for matching/unsharp_mask.hpp: against a brute-force 2D convolution with mirrored edges
+// (over several bands of rows too);
 // off and flat images unchanged; an edge overshoots on both sides; bad options throw.
 
 #include <algorithm>
@@ -54,8 +55,10 @@ TEST_CASE("unsharp_mask equals the brute-force 2D convolution", "[unsharp_mask]"
     int w, h;
     double amount, sigma;
   };
-  // The last two are smaller than the kernel: the mirror is applied more than once.
-  for (const Case c : {Case{37, 23, 1.0, 1.0}, Case{20, 31, 2.5, 0.7}, Case{5, 4, 1.5, 2.0}, Case{1, 6, 3.0, 1.0}}) {
+  // The last two are smaller than the kernel: the mirror is applied more than once. The first is
+  // taller than a band of rows (256), so that bands meet inside the image.
+  for (const Case c : {Case{9, 600, 1.2, 3.0}, Case{37, 23, 1.0, 1.0}, Case{20, 31, 2.5, 0.7}, Case{5, 4, 1.5, 2.0},
+                       Case{1, 6, 3.0, 1.0}}) {
     const Raster<std::uint8_t> img = diachron::test::uniform_noise_image(c.w, c.h, 7);
     UnsharpMaskOptions o;
     o.amount = c.amount;

@@ -72,24 +72,35 @@ inline Raster<std::uint8_t> unsharp_mask(const Raster<std::uint8_t>& image, cons
   const int w = image.width(), h = image.height();
   const std::vector<double> taps = detail::unsharp_gaussian_taps(options.sigma_px);
   const int r = static_cast<int>(taps.size() / 2);
-  std::vector<double> rows(static_cast<std::size_t>(w) * static_cast<std::size_t>(h));
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) {
-      double s = 0.0;
-      for (int i = -r; i <= r; ++i) s += taps[static_cast<std::size_t>(i + r)] * image(detail::unsharp_mirror(x + i, w), y);
-      rows[static_cast<std::size_t>(y) * static_cast<std::size_t>(w) + static_cast<std::size_t>(x)] = s;
-    }
+  // In bands of rows: the row-blurred lines a band reads (its rows and r mirrored ones on each side)
+  // are all it keeps, so that a 12000 x 12000 px scan needs 27 MB here instead of 1.15 GB. Each
+  // line is blurred as a whole image would blur it: the result does not depend on the band.
+  constexpr int kBandRows = 256;
+  const std::size_t wz = static_cast<std::size_t>(w);
+  std::vector<double> rows;
   Raster<std::uint8_t> out(w, h);
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) {
-      double blurred = 0.0;
-      for (int i = -r; i <= r; ++i)
-        blurred += taps[static_cast<std::size_t>(i + r)] *
-                   rows[static_cast<std::size_t>(detail::unsharp_mirror(y + i, h)) * static_cast<std::size_t>(w) +
-                        static_cast<std::size_t>(x)];
-      const double v = image(x, y) + options.amount * (image(x, y) - blurred);
-      out(x, y) = static_cast<std::uint8_t>(std::lround(std::clamp(v, 0.0, 255.0)));
+  for (int y0 = 0; y0 < h; y0 += kBandRows) {
+    const int y1 = std::min(h, y0 + kBandRows), first = y0 - r, lines = y1 - y0 + 2 * r;
+    rows.assign(static_cast<std::size_t>(lines) * wz, 0.0);
+    for (int j = 0; j < lines; ++j) {
+      const int y = detail::unsharp_mirror(first + j, h);
+      double* line = rows.data() + static_cast<std::size_t>(j) * wz;
+      for (int x = 0; x < w; ++x) {
+        double s = 0.0;
+        for (int i = -r; i <= r; ++i) s += taps[static_cast<std::size_t>(i + r)] * image(detail::unsharp_mirror(x + i, w), y);
+        line[x] = s;
+      }
     }
+    for (int y = y0; y < y1; ++y)
+      for (int x = 0; x < w; ++x) {
+        double blurred = 0.0;
+        for (int i = -r; i <= r; ++i)
+          blurred += taps[static_cast<std::size_t>(i + r)] *
+                     rows[static_cast<std::size_t>(y + i - first) * wz + static_cast<std::size_t>(x)];
+        const double v = image(x, y) + options.amount * (image(x, y) - blurred);
+        out(x, y) = static_cast<std::uint8_t>(std::lround(std::clamp(v, 0.0, 255.0)));
+      }
+  }
   return out;
 }
 
