@@ -5,6 +5,16 @@
 //
 //   match_epochs EPOCH_DIR EPOCH_DIR [EPOCH_DIR ...] --out DIR [options]
 //
+// or the same in stages, for a cluster (docs/scaling.md; the same outputs byte for byte):
+//
+//   match_epochs plan EPOCH_DIR... --out DIR [options] [--emit slurm]   DIR/plan.json, jobs.tsv
+//   match_epochs run-pair --plan DIR/plan.json --index I | --range A-B   DIR/jobs/<I>.json, .jpg
+//   match_epochs merge --plan DIR/plan.json                              the outputs below
+//
+// The program's parts: settings.hpp (the options that decide the results), plan.hpp and
+// plan_stage.hpp (the plan), pair_jobs.hpp, merge.hpp, report.hpp / reporter.hpp (report.json),
+// dod.hpp, adjustment.hpp, pictures.hpp, slurm.hpp, epochs.hpp (the epochs and the output folder).
+//
 // Each epoch folder holds a COLMAP model (text: cameras.txt, images.txt, points3D.txt; or COLMAP's
 // binary .bin files), images/ and dsm.tif in the model's frame (what make_scene writes), and
 // optionally masks/<image name>.png (COLMAP's masks) or images/<stem>_Masq.tif (MicMac's): 0 where
@@ -29,6 +39,7 @@
 //   DIR/Homol/              final inter-epoch tie points of every pair, MicMac Homol (both directions;
 //                           names as in images.txt, unless a name has a folder or two epochs use it: then
 //                           every name is prefixed e<k>_, and DIR/homol_names.txt lists them)
+//   DIR/plan.json, DIR/jobs.tsv, DIR/jobs/  the plan and each pair job's result (docs/scaling.md)
 //   DIR/report.json         the run (command line, version, threads, time per stage), the trust of the
 //                           results and why, warnings, the input checks, per epoch and epoch pair
 //   DIR/pairs/<a>__<b>.jpg  each pair: the secondary warped onto the master, the matches as dots

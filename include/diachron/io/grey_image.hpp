@@ -95,9 +95,17 @@ inline Raster<std::uint8_t> read_image_grey8(const std::string& path, const Grey
   // 8-bit photos, the common case, at 1 to 3 bytes per pixel of memory.
   if (type == GDT_Byte && !palette) {
     if (bands <= 2) {
-      const CPLErr err = first->RasterIO(GF_Read, x0, y0, w, h, px, w, h, GDT_Byte, 0, 0, nullptr);
-      DIACHRON_CHECK(err == CE_None,
-                     "cannot read image '" << path << "': read failed" << detail::QuietGdalErrors::last_message());
+      // In strips, dropping GDAL's cached blocks after each: read at once, a 12000 x 12000 px scan
+      // passed through 180 MB of block cache besides its own 144 MB.
+      constexpr int kStripRows = 512;
+      for (int y = 0; y < h; y += kStripRows) {
+        const int rows = std::min(kStripRows, h - y);
+        const CPLErr err = first->RasterIO(GF_Read, x0, y0 + y, w, rows, px + static_cast<std::size_t>(y) * w, w, rows,
+                                           GDT_Byte, 0, 0, nullptr);
+        DIACHRON_CHECK(err == CE_None,
+                       "cannot read image '" << path << "': read failed" << detail::QuietGdalErrors::last_message());
+        first->FlushCache(false);
+      }
     } else {
       const std::vector<std::uint8_t> r = read_band(1, std::uint8_t{}), g = read_band(2, std::uint8_t{}),
                                       b = read_band(3, std::uint8_t{});
