@@ -58,6 +58,7 @@
 // written to.
 
 #include <algorithm>
+#include <atomic>
 #include <charconv>
 #include <cerrno>
 #include <chrono>

@@ -37,16 +37,25 @@ class JobImages {
                           [](const Raster<std::uint8_t>& r) { return r.size() + sizeof(Raster<std::uint8_t>); }),
         keep_(budget_bytes > 0) {}
   Raster<std::uint8_t> load(std::size_t epoch, std::size_t image) const {
-    if (!keep_) return run_.epochs[epoch].folder.load_image(image);
+    if (!keep_) {
+      ++uncached_reads_;
+      return run_.epochs[epoch].folder.load_image(image);
+    }
     const std::uint64_t key = (static_cast<std::uint64_t>(epoch) << 40) | image;
     return *cache_.get(key, [&] { return run_.epochs[epoch].folder.load_image(image); });
   }
-  ByteBudgetCacheStats stats() const { return cache_.stats(); }
+  // The cache's counters; without a cache, `misses` counts the reads.
+  ByteBudgetCacheStats stats() const {
+    ByteBudgetCacheStats s = cache_.stats();
+    s.misses += uncached_reads_;
+    return s;
+  }
 
  private:
   const Run& run_;
   mutable ByteBudgetCache<std::uint64_t, Raster<std::uint8_t>> cache_;
   bool keep_ = true;
+  mutable std::atomic<std::size_t> uncached_reads_{0};
 };
 
 struct JobsOutcome {
