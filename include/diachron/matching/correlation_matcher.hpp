@@ -27,30 +27,15 @@
 #include <diachron/core/random.hpp>
 #include <diachron/core/raster.hpp>
 #include <diachron/core/types.hpp>
+#include <diachron/matching/correlation_kernel.hpp>
 #include <diachron/matching/grid_interest_points.hpp>
 #include <diachron/matching/point_match.hpp>
+#include <diachron/matching/window_sampler.hpp>
 #include <diachron/robust/chance_inliers.hpp>
 #include <diachron/terrain/local_affine.hpp>
 #include <diachron/terrain/transfer.hpp>
-#include <diachron/validation/ncc_validator.hpp>  // detail::ncc_bilinear, the shared sampler
 
 namespace diachron {
-
-/// The similarity the correlation surface measures. All are zero-mean normalised correlations in
-/// [-1, 1] over one or two channels computed on the resampled windows (master geometry).
-enum class CorrelationMeasure : std::uint8_t {
-  intensity,    ///< grey values (classic NCC): invariant to gain and offset
-  gradient,     ///< the gradient vector (gx, gy): also ignores slow illumination ramps
-  orientation,  ///< the doubled-angle gradient |g| (cos 2t, sin 2t): invariant to contrast inversion
-                ///< (g and -g give the same vector), weighted by the gradient magnitude
-};
-
-/// "intensity", "gradient" or "orientation".
-inline const char* to_string(CorrelationMeasure m) {
-  return m == CorrelationMeasure::intensity ? "intensity"
-         : m == CorrelationMeasure::gradient ? "gradient"
-                                              : "orientation";
-}
 
 /// Options of correlation matching. Defaults: docs/correlation-matching.md measures them on the
 /// decades-apart scenes.
@@ -90,6 +75,23 @@ struct CorrelationMatchOptions {
   /// combined adjustment's check points got worse with those matches in 7 of 10 runs, so 1 px stays
   /// the default (docs/correlation-matching.md, "The window's affine").
   double affine_step_px = 1.0;
+  /// Side of the square master tiles whose points may share one resampled secondary patch, master px
+  /// (in [0, 256]; 0, the default: every point resamples its own). In a tile, a point whose local
+  /// affine is within shared_affine_tolerance_px of a group's first point joins that group: the
+  /// secondary image is resampled once around all their searches through the first point's affine,
+  /// and each member's search is centred on its prediction rounded to that patch's master-pixel
+  /// grid (at most half a master px off per axis); its peak is then refined through its own
+  /// prediction and affine. Members' scores thus differ from correlate_point's in the last digits,
+  /// and their integer surfaces by the rounding. On the decades scenes (6 px cells, 6 pairs) 24 px
+  /// tiles at 1 px grouped 3.4 points per patch and took 7 % off a pair's time, the matches as good;
+  /// the sampling that remains is the sub-pixel rounds' and the null surfaces', so it is an option
+  /// (docs/correlation-matching.md, "Speed").
+  int shared_tile_px = 0;
+  /// The largest move of a window's sample, secondary px (>= 0), between a point's own local affine
+  /// and its group's: half the window times the largest row sum of the absolute difference of the
+  /// two affines. The affines of a DSM transfer at a 1 px step carry the DSM's height noise: on the
+  /// decades scenes 0.25 px grouped 1.5 points per patch, 1 px 3.4.
+  double shared_affine_tolerance_px = 1.0;
   /// Worker threads over points (0 = all cores). The result does not depend on it.
   std::size_t threads = 0;
 
@@ -152,6 +154,11 @@ struct CorrelationMatchOptions {
     DIACHRON_CHECK(exclusion_px >= 1, "CorrelationMatchOptions::exclusion_px must be >= 1, got " << exclusion_px);
     DIACHRON_CHECK(std::isfinite(affine_step_px) && affine_step_px >= 0.0,
                    "CorrelationMatchOptions::affine_step_px must be finite and >= 0, got " << affine_step_px);
+    DIACHRON_CHECK(shared_tile_px >= 0 && shared_tile_px <= 256,
+                   "CorrelationMatchOptions::shared_tile_px must be in [0, 256], got " << shared_tile_px);
+    DIACHRON_CHECK(std::isfinite(shared_affine_tolerance_px) && shared_affine_tolerance_px >= 0.0,
+                   "CorrelationMatchOptions::shared_affine_tolerance_px must be finite and >= 0, got "
+                       << shared_affine_tolerance_px);
     DIACHRON_CHECK(false_alarm_rate > 0.0 && false_alarm_rate <= 0.5,
                    "CorrelationMatchOptions::false_alarm_rate must be in (0, 0.5], got " << false_alarm_rate);
     DIACHRON_CHECK(adaptive_floor >= -1.0 && adaptive_floor <= 1.0,
@@ -305,118 +312,24 @@ inline bool correlation_inside(int width, int height, const Eigen::Vector2d& c, 
   return true;
 }
 
-// The products of a patch's affine with each column's and each row's sub-sample offsets
-// (correlation_sample), kept between calls so that their storage is allocated once per task.
-struct CorrelationOffsets {
-  std::vector<double> col_x, col_y, row_x, row_y;
-};
-
-// Samples a side x side patch at c + m * o, o in [-(side/2), side/2]^2 (side odd), averaging
-// k x k sub-samples spread over each master pixel when k > 1. The products of m with each column's
-// and each row's offsets are taken once (into `offsets`): the positions are those of c + m * o to
-// the last bit (the same products and sums), at a fraction of the work.
-template <class T>
-void correlation_sample(const Raster<T>& img, const Eigen::Vector2d& c, const Eigen::Matrix2d& m, int side, int k,
-                        CorrelationOffsets& offsets, std::vector<double>& out) {
-  out.resize(static_cast<std::size_t>(side) * static_cast<std::size_t>(side));
-  const int first = -(side / 2);
-  const std::size_t n = static_cast<std::size_t>(side) * static_cast<std::size_t>(k);
-  std::vector<double>& col_x = offsets.col_x;
-  std::vector<double>& col_y = offsets.col_y;
-  std::vector<double>& row_x = offsets.row_x;
-  std::vector<double>& row_y = offsets.row_y;
-  col_x.resize(n);
-  col_y.resize(n);
-  row_x.resize(n);
-  row_y.resize(n);
-  for (int i = 0; i < side; ++i)
-    for (int sub = 0; sub < k; ++sub) {
-      const double o = first + i + (sub + 0.5) / k - 0.5;
-      const std::size_t q = static_cast<std::size_t>(i * k + sub);
-      col_x[q] = m(0, 0) * o;
-      col_y[q] = m(1, 0) * o;
-      row_x[q] = m(0, 1) * o;
-      row_y[q] = m(1, 1) * o;
-    }
-  std::size_t idx = 0;
-  for (int j = 0; j < side; ++j)
-    for (int i = 0; i < side; ++i) {
-      double sum = 0.0;
-      for (int sy = 0; sy < k; ++sy) {
-        const std::size_t qy = static_cast<std::size_t>(j * k + sy);
-        for (int sx = 0; sx < k; ++sx) {
-          const std::size_t qx = static_cast<std::size_t>(i * k + sx);
-          sum += ncc_bilinear(img, c.x() + (col_x[qx] + row_x[qy]), c.y() + (col_y[qx] + row_y[qy]));
-        }
-      }
-      out[idx++] = sum / (k * k);
-    }
-}
-
-// The measure's channels of a patch of side `side` (1 px margin used by the gradients), on the
-// inner (side - 2)^2 pixels, row-major; one or two channels.
-inline int correlation_channels(CorrelationMeasure measure, const std::vector<double>& patch, int side,
-                                std::vector<double>& c0, std::vector<double>& c1) {
-  const int inner = side - 2;
-  const std::size_t n = static_cast<std::size_t>(inner) * static_cast<std::size_t>(inner);
-  c0.resize(n);
-  c1.resize(n);
-  auto v = [&](int x, int y) {
-    return patch[static_cast<std::size_t>(y) * static_cast<std::size_t>(side) + static_cast<std::size_t>(x)];
-  };
-  std::size_t idx = 0;
-  for (int y = 1; y <= inner; ++y)
-    for (int x = 1; x <= inner; ++x, ++idx) {
-      if (measure == CorrelationMeasure::intensity) {
-        c0[idx] = v(x, y);
-        continue;
-      }
-      const double gx = 0.5 * (v(x + 1, y) - v(x - 1, y)), gy = 0.5 * (v(x, y + 1) - v(x, y - 1));
-      if (measure == CorrelationMeasure::gradient) {
-        c0[idx] = gx;
-        c1[idx] = gy;
-        continue;
-      }
-      const double mag = std::sqrt(gx * gx + gy * gy);
-      // |g| (cos 2t, sin 2t) = ((gx^2 - gy^2), 2 gx gy) / |g|: the same for g and -g.
-      c0[idx] = mag > 0.0 ? (gx * gx - gy * gy) / mag : 0.0;
-      c1[idx] = mag > 0.0 ? 2.0 * gx * gy / mag : 0.0;
-    }
-  return measure == CorrelationMeasure::intensity ? 1 : 2;
-}
-
-// Integral image (one leading row and column of zeros) of a side x side array, and of its squares.
-inline void correlation_integrals(const std::vector<double>& c, int side, std::vector<double>& sum,
-                                  std::vector<double>& sum2) {
-  const std::size_t s1 = static_cast<std::size_t>(side) + 1;
-  sum.assign(s1 * s1, 0.0);
-  sum2.assign(s1 * s1, 0.0);
-  for (int y = 0; y < side; ++y) {
-    double r = 0.0, r2 = 0.0;
-    for (int x = 0; x < side; ++x) {
-      const double v = c[static_cast<std::size_t>(y) * static_cast<std::size_t>(side) + static_cast<std::size_t>(x)];
-      r += v;
-      r2 += v * v;
-      sum[(y + 1) * s1 + (x + 1)] = sum[y * s1 + (x + 1)] + r;
-      sum2[(y + 1) * s1 + (x + 1)] = sum2[y * s1 + (x + 1)] + r2;
-    }
-  }
-}
-
-inline double correlation_box(const std::vector<double>& integral, int side, int x, int y, int w) {
-  const std::size_t s1 = static_cast<std::size_t>(side) + 1;
-  return integral[(y + w) * s1 + (x + w)] - integral[y * s1 + (x + w)] - integral[(y + w) * s1 + x] +
-         integral[y * s1 + x];
-}
-
+// The reused buffers of one thread's correlations: the resampled patches, the master window's
+// channels, the secondary patch's channels with their integral images, the window of a sub-pixel
+// score, one row of cross products.
 struct CorrelationScratch {
-  std::vector<double> master_patch, secondary_patch, m0, m1, s0, s1, sum0, sum20, sum1, sum21, f0, f1;
-  std::vector<double> cross;  // one row of shifts (correlation_surface_into)
-  CorrelationOffsets offsets;  // correlation_sample's
-  double master_var = 0.0;  // sum of squares of the zero-mean master channels
-  int channels = 1;
-  int k = 1;  // anti-aliasing sub-samples per axis
+  AffineGridScratch grid;
+  std::vector<float> master_patch, secondary_patch;
+  CorrelationTemplate master;       // the point's window (correlation_template)
+  CorrelationChannels channels;     // the secondary patch's
+  CorrelationTemplate window;       // a sub-pixel score's secondary window (correlation_score_at)
+  std::vector<double> cross;        // correlation_scores'
+  int k = 1;                        // anti-aliasing sub-samples per axis
 };
+
+// One scratch per thread for the single-point functions (correlation_surface, correlate_point).
+inline CorrelationScratch& correlation_thread_scratch() {
+  thread_local CorrelationScratch scratch;
+  return scratch;
+}
 
 template <class T>
 void check_correlation_inputs(const Raster<T>& master, const Eigen::Vector2d& a, const Raster<T>& secondary,
@@ -430,6 +343,57 @@ void check_correlation_inputs(const Raster<T>& master, const Eigen::Vector2d& a,
                                          << a.transpose() << ")");
 }
 
+// Anti-aliasing sub-samples per axis for a local affine: ceil of its largest singular value, 1 to 4.
+inline int correlation_subsamples(const Eigen::Matrix2d& affine, const CorrelationMatchOptions& o) {
+  if (!o.antialias) return 1;
+  return std::clamp(static_cast<int>(std::ceil(affine_singular_values(affine).x() - 1e-6)), 1, 4);
+}
+
+// The half side, master px, of the secondary region a search samples (window, search, gradient
+// margin), and the reach of its sub-samples beyond it.
+inline double correlation_reach(const CorrelationMatchOptions& o, int k) {
+  return o.window_px / 2 + o.search_radius_px + 1 + (k > 1 ? 0.5 : 0.0);
+}
+
+// The master window of point a into s.master (channels, zero-mean); outside_master, flat or not_run.
+template <class T>
+CorrelationOutcome correlation_master_window(const Raster<T>& master, const Eigen::Vector2d& a,
+                                             const CorrelationMatchOptions& o, CorrelationScratch& s) {
+  const int half = o.window_px / 2, side = o.window_px + 2;  // +1 px margin for the gradients
+  if (!correlation_inside(master.width(), master.height(), a, Eigen::Matrix2d::Identity(), half + 1))
+    return CorrelationOutcome::outside_master;
+  s.master_patch.resize(static_cast<std::size_t>(side) * static_cast<std::size_t>(side));
+  if (a.x() == std::floor(a.x()) && a.y() == std::floor(a.y())) {
+    // On a pixel centre (grid points are): the pixels themselves, as the bilinear samples would be.
+    const int x0 = static_cast<int>(a.x()) - (half + 1), y0 = static_cast<int>(a.y()) - (half + 1);
+    for (int j = 0; j < side; ++j) {
+      const T* row = master.row(y0 + j) + x0;
+      float* out = s.master_patch.data() + static_cast<std::size_t>(j) * static_cast<std::size_t>(side);
+      for (int i = 0; i < side; ++i) out[i] = static_cast<float>(row[i]);
+    }
+  } else {
+    sample_affine_grid(master, a, Eigen::Matrix2d::Identity(), -(half + 1), -(half + 1), side, side, 1,
+                       s.master_patch.data(), static_cast<std::size_t>(side), s.grid);
+  }
+  correlation_template(o.measure, s.master_patch.data(), o.window_px, static_cast<std::size_t>(side), s.master);
+  return s.master.flat ? CorrelationOutcome::flat : CorrelationOutcome::not_run;
+}
+
+// The secondary patch of the offsets [first, first + cols) x [first_y, first_y + rows) at c + m o,
+// with k x k sub-samples, into s.channels; false when its channels are not finite.
+template <class T>
+bool correlation_secondary_patch(const Raster<T>& secondary, const Eigen::Vector2d& c, const Eigen::Matrix2d& m,
+                                 int first_x, int first_y, int cols, int rows, int k, const CorrelationMatchOptions& o,
+                                 CorrelationScratch& s) {
+  s.secondary_patch.resize(static_cast<std::size_t>(cols) * static_cast<std::size_t>(rows));
+  sample_affine_grid(secondary, c, m, first_x, first_y, cols, rows, k, s.secondary_patch.data(),
+                     static_cast<std::size_t>(cols), s.grid);
+  correlation_channels(o.measure, s.secondary_patch.data(), cols, rows, static_cast<std::size_t>(cols), s.channels);
+  for (int ch = 0; ch < s.channels.channels; ++ch)
+    if (!std::isfinite(s.channels.sum[ch].back()) || !std::isfinite(s.channels.sum2[ch].back())) return false;
+  return true;
+}
+
 // The surface into `surface` ((2R+1)^2); returns the outcome (not_run when the surface is valid).
 template <class T>
 CorrelationOutcome correlation_surface_into(const Raster<T>& master, const Eigen::Vector2d& a,
@@ -437,107 +401,20 @@ CorrelationOutcome correlation_surface_into(const Raster<T>& master, const Eigen
                                             const Eigen::Matrix2d& affine, const CorrelationMatchOptions& o,
                                             CorrelationScratch& s, Eigen::MatrixXd& surface) {
   const int half = o.window_px / 2, r = o.search_radius_px;
-  const int master_side = o.window_px + 2;            // +1 px margin for the gradients
-  const int secondary_side = o.window_px + 2 * r + 2;  // every shift's window, plus the margin
-  const Eigen::Matrix2d identity = Eigen::Matrix2d::Identity();
-  if (!correlation_inside(master.width(), master.height(), a, identity, half + 1))
+  const int half_region = half + r + 1;  // every shift's window, plus the gradients' margin
+  if (!correlation_inside(master.width(), master.height(), a, Eigen::Matrix2d::Identity(), half + 1))
     return CorrelationOutcome::outside_master;
-  int k = 1;
-  if (o.antialias) k = std::clamp(static_cast<int>(std::ceil(affine_singular_values(affine).x() - 1e-6)), 1, 4);
+  const int k = correlation_subsamples(affine, o);
   // The sub-samples reach half a master pixel beyond the outer offsets.
-  if (!correlation_inside(secondary.width(), secondary.height(), b0, affine, half + r + 1 + (k > 1 ? 0.5 : 0.0)))
+  if (!correlation_inside(secondary.width(), secondary.height(), b0, affine, correlation_reach(o, k)))
     return CorrelationOutcome::outside_secondary;
   s.k = k;
-  correlation_sample(master, a, identity, master_side, 1, s.offsets, s.master_patch);
-  correlation_sample(secondary, b0, affine, secondary_side, k, s.offsets, s.secondary_patch);
-  const int channels = correlation_channels(o.measure, s.master_patch, master_side, s.m0, s.m1);
-  correlation_channels(o.measure, s.secondary_patch, secondary_side, s.s0, s.s1);
-  const int w = o.window_px, side = secondary_side - 2;
-  const std::size_t n = static_cast<std::size_t>(w) * static_cast<std::size_t>(w);
-  if (!std::all_of(s.m0.begin(), s.m0.end(), [](double v) { return std::isfinite(v); }) ||
-      !std::all_of(s.s0.begin(), s.s0.end(), [](double v) { return std::isfinite(v); }))
+  const CorrelationOutcome window = correlation_master_window(master, a, o, s);
+  if (window != CorrelationOutcome::not_run) return window;
+  const int side = 2 * half_region + 1;
+  if (!correlation_secondary_patch(secondary, b0, affine, -half_region, -half_region, side, side, k, o, s))
     return CorrelationOutcome::flat;
-  // Zero-mean master channels: the cross term then needs no secondary mean.
-  double master_var = 0.0, master_scale = 0.0;
-  for (int c = 0; c < channels; ++c) {
-    std::vector<double>& m = c == 0 ? s.m0 : s.m1;
-    double mean = 0.0;
-    for (double v : m) mean += v;
-    mean /= static_cast<double>(n);
-    for (double& v : m) {
-      master_scale += v * v;
-      v -= mean;
-      master_var += v * v;
-    }
-  }
-  // Rounding of a constant window leaves ~1e-20 relative variance: that is flat, not texture.
-  if (!(master_var > 1e-12 * std::max(1.0, master_scale))) return CorrelationOutcome::flat;
-  s.master_var = master_var;
-  s.channels = channels;
-  correlation_integrals(s.s0, side, s.sum0, s.sum20);
-  if (channels == 2) correlation_integrals(s.s1, side, s.sum1, s.sum21);
-  const int shifts = 2 * r + 1;
-  surface.resize(shifts, shifts);
-  // A row of shifts at a time: each shift's sum over a master row takes the products in the order
-  // of the row's pixels, and cross[dx] the rows' sums in channel and row order, so every score is
-  // the sum of the same terms in the same order as one window at a time.
-  s.cross.resize(static_cast<std::size_t>(shifts));
-  double* const cross = s.cross.data();
-  for (int dy = 0; dy < shifts; ++dy) {
-    std::fill(cross, cross + shifts, 0.0);
-    for (int c = 0; c < channels; ++c) {
-      const std::vector<double>& m = c == 0 ? s.m0 : s.m1;
-      const std::vector<double>& sc = c == 0 ? s.s0 : s.s1;
-      for (int j = 0; j < w; ++j) {
-        const double* mrow = m.data() + static_cast<std::size_t>(j) * static_cast<std::size_t>(w);
-        const double* srow = sc.data() + static_cast<std::size_t>(dy + j) * static_cast<std::size_t>(side);
-        // Eight shifts side by side: eight independent sums keep the adder busy where one sum
-        // would wait on its own previous addition at every pixel.
-        int dx = 0;
-        for (; dx + 8 <= shifts; dx += 8) {
-          double a0 = 0.0, a1 = 0.0, a2 = 0.0, a3 = 0.0, a4 = 0.0, a5 = 0.0, a6 = 0.0, a7 = 0.0;
-          const double* sp = srow + dx;
-          for (int i = 0; i < w; ++i) {
-            const double mi = mrow[i];
-            a0 += mi * sp[i];
-            a1 += mi * sp[i + 1];
-            a2 += mi * sp[i + 2];
-            a3 += mi * sp[i + 3];
-            a4 += mi * sp[i + 4];
-            a5 += mi * sp[i + 5];
-            a6 += mi * sp[i + 6];
-            a7 += mi * sp[i + 7];
-          }
-          cross[dx] += a0;
-          cross[dx + 1] += a1;
-          cross[dx + 2] += a2;
-          cross[dx + 3] += a3;
-          cross[dx + 4] += a4;
-          cross[dx + 5] += a5;
-          cross[dx + 6] += a6;
-          cross[dx + 7] += a7;
-        }
-        for (; dx < shifts; ++dx) {
-          double a = 0.0;
-          const double* sp = srow + dx;
-          for (int i = 0; i < w; ++i) a += mrow[i] * sp[i];
-          cross[dx] += a;
-        }
-      }
-    }
-    for (int dx = 0; dx < shifts; ++dx) {
-      double var = 0.0, scale = 0.0;
-      for (int c = 0; c < channels; ++c) {
-        const double sum = correlation_box(c == 0 ? s.sum0 : s.sum1, side, dx, dy, w);
-        const double sum2 = correlation_box(c == 0 ? s.sum20 : s.sum21, side, dx, dy, w);
-        var += sum2 - sum * sum / static_cast<double>(n);
-        scale += sum2;
-      }
-      surface(dy, dx) = var > 1e-12 * std::max(1.0, scale)
-                            ? std::clamp(cross[dx] / std::sqrt(master_var * var), -1.0, 1.0)
-                            : std::numeric_limits<double>::quiet_NaN();
-    }
-  }
+  correlation_scores(s.master, s.channels, 0, 0, 2 * r + 1, 2 * r + 1, surface, s.cross);
   return CorrelationOutcome::not_run;
 }
 
@@ -609,24 +486,20 @@ double correlation_score_at(const Raster<T>& secondary, const Eigen::Vector2d& c
   if (!correlation_inside(secondary.width(), secondary.height(), centre, affine,
                           o.window_px / 2 + 1 + (s.k > 1 ? 0.5 : 0.0)))
     return nan;
-  correlation_sample(secondary, centre, affine, side, s.k, s.offsets, s.secondary_patch);
-  correlation_channels(o.measure, s.secondary_patch, side, s.f0, s.f1);
-  const double n = static_cast<double>(s.f0.size());
-  double cross = 0.0, var = 0.0, scale = 0.0;
-  for (int c = 0; c < s.channels; ++c) {
-    const std::vector<double>& m = c == 0 ? s.m0 : s.m1;
-    const std::vector<double>& f = c == 0 ? s.f0 : s.f1;
-    double sum = 0.0, sum2 = 0.0;
-    for (std::size_t i = 0; i < f.size(); ++i) {
-      cross += m[i] * f[i];
-      sum += f[i];
-      sum2 += f[i] * f[i];
-    }
-    var += sum2 - sum * sum / n;
-    scale += sum2;
+  s.secondary_patch.resize(static_cast<std::size_t>(side) * static_cast<std::size_t>(side));
+  sample_affine_grid(secondary, centre, affine, -(side / 2), -(side / 2), side, side, s.k, s.secondary_patch.data(),
+                     static_cast<std::size_t>(side), s.grid);
+  correlation_template(o.measure, s.secondary_patch.data(), o.window_px, static_cast<std::size_t>(side), s.window);
+  if (s.window.flat) return nan;
+  // Both windows are zero-mean: the cross term is the plain sum of products.
+  const std::size_t n = static_cast<std::size_t>(o.window_px) * static_cast<std::size_t>(o.window_px);
+  double cross = 0.0;
+  for (int c = 0; c < s.master.channels; ++c) {
+    const float* m = s.master.data[c].data();
+    const float* f = s.window.data[c].data();
+    for (std::size_t i = 0; i < n; ++i) cross += static_cast<double>(m[i]) * f[i];
   }
-  if (!std::isfinite(var) || !(var > 1e-12 * std::max(1.0, scale))) return nan;
-  return std::clamp(cross / std::sqrt(s.master_var * var), -1.0, 1.0);
+  return std::clamp(cross / std::sqrt(s.master.var * s.window.var), -1.0, 1.0);
 }
 
 // Rounds of scores at halving steps around the peak (the centre and its four neighbours along the
@@ -665,7 +538,7 @@ Eigen::MatrixXd correlation_surface(const Raster<T>& master, const Eigen::Vector
   static_assert(std::is_arithmetic_v<T>, "correlation_surface: the pixel type must be arithmetic");
   options.check();
   detail::check_correlation_inputs(master, a, secondary, b0, affine);
-  detail::CorrelationScratch s;
+  detail::CorrelationScratch& s = detail::correlation_thread_scratch();
   Eigen::MatrixXd surface;
   if (detail::correlation_surface_into(master, a, secondary, b0, affine, options, s, surface) !=
       CorrelationOutcome::not_run)
@@ -680,7 +553,7 @@ CorrelationPeak correlate_point(const Raster<T>& master, const Eigen::Vector2d& 
   static_assert(std::is_arithmetic_v<T>, "correlate_point: the pixel type must be arithmetic");
   options.check();
   detail::check_correlation_inputs(master, a, secondary, b0, affine);
-  detail::CorrelationScratch s;
+  detail::CorrelationScratch& s = detail::correlation_thread_scratch();
   Eigen::MatrixXd surface;
   const CorrelationOutcome o = detail::correlation_surface_into(master, a, secondary, b0, affine, options, s, surface);
   if (o != CorrelationOutcome::not_run) {
@@ -716,11 +589,12 @@ constexpr std::size_t kMinNullSurfacesPerCall = 256;
 // by a random offset whose Chebyshev norm is in [2 R + window, 2 (2 R + window)) master px, through the
 // point's local affine, and keeps the surface's best score. Offsets that take the search off the
 // secondary image are drawn again (8 tries); a point whose tries all leave it gives no sample.
-template <class T, class Transfer>
+template <class T>
 CorrelationThreshold correlation_null_threshold(const Raster<T>& master, const Raster<T>& secondary,
                                                 const std::vector<Eigen::Vector2d>& points,
                                                 const std::vector<std::optional<Eigen::Vector2d>>& predictions,
-                                                const std::vector<std::size_t>& eligible, const Transfer& transfer,
+                                                const std::vector<std::optional<Eigen::Matrix2d>>& affines,
+                                                const std::vector<std::size_t>& eligible,
                                                 const CorrelationMatchOptions& o) {
   CorrelationThreshold t;
   const std::size_t samples =
@@ -739,7 +613,7 @@ CorrelationThreshold correlation_null_threshold(const Raster<T>& master, const R
     Eigen::MatrixXd surface;
     for (std::size_t j = chunk * kChunk; j < std::min(samples, (chunk + 1) * kChunk); ++j) {
       const std::size_t i = eligible[j * eligible.size() / samples];
-      const std::optional<Eigen::Matrix2d> affine = local_affine(transfer, points[i], o.affine_step());
+      const std::optional<Eigen::Matrix2d>& affine = affines[i];
       if (!affine) continue;
       RandomStream rng(o.seed, j);
       for (int attempt = 0; attempt < 8; ++attempt) {
@@ -786,6 +660,132 @@ CorrelationThreshold correlation_null_threshold(const Raster<T>& master, const R
     t.null_match_rate_bound = wilson_upper_bound(t.null_match_rate, n, 3.09);  // one-sided 99.9 %
   }
   return t;
+}
+
+// Points whose surfaces read one secondary patch, sampled through the local affine of the first
+// (`reference`) around its prediction: member m's search is centred on lattice[m] of that patch,
+// i.e. on b_ref + A_ref lattice[m] (its own prediction rounded to the patch's master-pixel grid).
+struct CorrelationGroup {
+  std::vector<std::size_t> members;      // point indices; members[0] is the reference
+  std::vector<Eigen::Vector2i> lattice;  // lattice[0] = (0, 0)
+};
+
+// The groups of correlation_match (options.shared_tile_px, shared_affine_tolerance_px): the
+// candidates in order of their master tile (rows of tiles, then columns, then the point's index);
+// each joins the first group of its tile whose reference has the same anti-aliasing, an affine
+// within the tolerance of its own, and puts it on a lattice position within 2 tiles of the
+// reference whose search stays inside the secondary image; otherwise it opens a group.
+// Deterministic: the groups depend on the points, predictions and affines alone.
+template <class T>
+std::vector<CorrelationGroup> correlation_groups(const Raster<T>& secondary, const std::vector<Eigen::Vector2d>& points,
+                                                 const std::vector<std::optional<Eigen::Vector2d>>& predictions,
+                                                 const std::vector<std::optional<Eigen::Matrix2d>>& affines,
+                                                 const std::vector<std::size_t>& candidates,
+                                                 const CorrelationMatchOptions& o) {
+  std::vector<CorrelationGroup> groups;
+  groups.reserve(candidates.size());
+  if (o.shared_tile_px <= 0) {
+    for (std::size_t i : candidates) groups.push_back({{i}, {Eigen::Vector2i::Zero()}});
+    return groups;
+  }
+  const double tile = o.shared_tile_px;
+  struct Keyed {
+    std::int64_t ty, tx;
+    std::size_t i;
+  };
+  std::vector<Keyed> keyed;
+  keyed.reserve(candidates.size());
+  for (std::size_t i : candidates)
+    keyed.push_back({static_cast<std::int64_t>(std::floor(points[i].y() / tile)),
+                     static_cast<std::int64_t>(std::floor(points[i].x() / tile)), i});
+  std::sort(keyed.begin(), keyed.end(), [](const Keyed& l, const Keyed& r) {
+    return l.ty != r.ty ? l.ty < r.ty : l.tx != r.tx ? l.tx < r.tx : l.i < r.i;
+  });
+  const double half = o.window_px / 2;
+  const int max_lattice = 2 * o.shared_tile_px;
+  struct Open {
+    Eigen::Matrix2d affine, inverse;
+    Eigen::Vector2d centre;
+    int k;
+    bool shareable;
+    std::size_t group;
+  };
+  std::vector<Open> open;  // the groups of the current tile
+  for (std::size_t at = 0; at < keyed.size(); ++at) {
+    if (at == 0 || keyed[at].ty != keyed[at - 1].ty || keyed[at].tx != keyed[at - 1].tx) open.clear();
+    const std::size_t i = keyed[at].i;
+    const Eigen::Matrix2d& a = *affines[i];
+    const Eigen::Vector2d& b = *predictions[i];
+    const int k = correlation_subsamples(a, o);
+    bool joined = false;
+    if (std::abs(a.determinant()) > 1e-9) {
+      for (const Open& g : open) {
+        if (!g.shareable || g.k != k) continue;
+        const Eigen::Matrix2d d = (a - g.affine).cwiseAbs();
+        // The largest move of a window's sample, secondary px, between the two affines.
+        if (half * std::max(d(0, 0) + d(0, 1), d(1, 0) + d(1, 1)) > o.shared_affine_tolerance_px) continue;
+        const Eigen::Vector2d q = g.inverse * (b - g.centre);
+        if (!(q.cwiseAbs().maxCoeff() <= max_lattice)) continue;
+        const Eigen::Vector2i lattice(static_cast<int>(std::lround(q.x())), static_cast<int>(std::lround(q.y())));
+        if (!correlation_inside(secondary.width(), secondary.height(), g.centre + g.affine * lattice.cast<double>(),
+                                g.affine, correlation_reach(o, k)))
+          continue;
+        groups[g.group].members.push_back(i);
+        groups[g.group].lattice.push_back(lattice);
+        joined = true;
+        break;
+      }
+    }
+    if (joined) continue;
+    const bool shareable = std::abs(a.determinant()) > 1e-9;
+    open.push_back({a, shareable ? Eigen::Matrix2d(a.inverse()) : Eigen::Matrix2d::Zero(), b, k, shareable,
+                    groups.size()});
+    groups.push_back({{i}, {Eigen::Vector2i::Zero()}});
+  }
+  return groups;
+}
+
+// The peaks of a group's members into peaks[member]: one secondary patch over all their searches,
+// then each member's master window, surface, peak, and (when matched) the sub-pixel rounds through
+// its own prediction and local affine.
+template <class T>
+void correlation_group_peaks(const Raster<T>& master, const Raster<T>& secondary,
+                             const std::vector<Eigen::Vector2d>& points,
+                             const std::vector<std::optional<Eigen::Vector2d>>& predictions,
+                             const std::vector<std::optional<Eigen::Matrix2d>>& affines, const CorrelationGroup& group,
+                             const CorrelationMatchOptions& o, CorrelationScratch& s, Eigen::MatrixXd& surface,
+                             std::vector<CorrelationPeak>& peaks) {
+  const std::size_t ref = group.members.front();
+  const Eigen::Matrix2d& affine = *affines[ref];
+  const Eigen::Vector2d& centre = *predictions[ref];
+  const int r = o.search_radius_px, half_region = o.window_px / 2 + r + 1, shifts = 2 * r + 1;
+  Eigen::Vector2i lo = group.lattice.front(), hi = lo;
+  for (const Eigen::Vector2i& q : group.lattice) {
+    lo = lo.cwiseMin(q);
+    hi = hi.cwiseMax(q);
+  }
+  s.k = correlation_subsamples(affine, o);
+  const bool finite = correlation_secondary_patch(secondary, centre, affine, lo.x() - half_region, lo.y() - half_region,
+                                                  hi.x() - lo.x() + 2 * half_region + 1,
+                                                  hi.y() - lo.y() + 2 * half_region + 1, s.k, o, s);
+  for (std::size_t m = 0; m < group.members.size(); ++m) {
+    const std::size_t i = group.members[m];
+    CorrelationPeak& p = peaks[i];
+    const CorrelationOutcome window = correlation_master_window(master, points[i], o, s);
+    if (window != CorrelationOutcome::not_run || !finite) {
+      p.outcome = window != CorrelationOutcome::not_run ? window : CorrelationOutcome::flat;
+      continue;
+    }
+    const Eigen::Vector2i& q = group.lattice[m];
+    correlation_scores(s.master, s.channels, q.x() - lo.x(), q.y() - lo.y(), shifts, shifts, surface, s.cross);
+    p = correlation_peak(surface, Eigen::Vector2d(centre + affine * q.cast<double>()), affine, o);
+    const Eigen::Vector2d& b0 = *predictions[i];
+    const Eigen::Matrix2d& own = *affines[i];
+    // The shift from the point's own prediction through its own affine (m > 0: a member's affine is
+    // invertible, correlation_groups checked it).
+    if (m > 0 && p.b.allFinite()) p.shift = own.inverse() * (p.b - b0);
+    if (p.outcome == CorrelationOutcome::matched) correlation_refine(secondary, b0, own, o, s, p);
+  }
 }
 
 // The pair test of options.pair_significance on a call's judged peaks: turns every match into
@@ -841,45 +841,53 @@ CorrelationMatchResult correlation_match(const Raster<T>& master, const Raster<T
   auto inside_master = [&](const Eigen::Vector2d& a) {
     return detail::correlation_inside(master.width(), master.height(), a, Eigen::Matrix2d::Identity(), half + 1);
   };
+  // The local affines of the points predicted onto the secondary image; a prediction off it leaves
+  // it with any window around it (the window's corners surround its centre): its local affine, four
+  // more transfers, is not needed to say so. The null surfaces reuse them.
+  std::vector<std::optional<Eigen::Matrix2d>> affines(points.size());
+  parallel_for(chunks, options.threads, [&](std::size_t chunk) {
+    for (std::size_t i = chunk * kChunk; i < std::min(points.size(), (chunk + 1) * kChunk); ++i)
+      if (predictions[i] && inside_secondary(*predictions[i]))
+        affines[i] = local_affine(transfer, points[i], options.affine_step());
+  });
   if (options.adaptive_threshold) {
     std::vector<std::size_t> eligible;
     for (std::size_t i = 0; i < points.size(); ++i)
       if (predictions[i] && inside_secondary(*predictions[i]) && inside_master(points[i])) eligible.push_back(i);
     result.threshold =
-        detail::correlation_null_threshold(master, secondary, points, predictions, eligible, transfer, options);
+        detail::correlation_null_threshold(master, secondary, points, predictions, affines, eligible, options);
   } else {
     result.threshold.min_score = options.min_score;
   }
   CorrelationMatchOptions judged = options;
   judged.min_score = result.threshold.min_score;
-  parallel_for(chunks, options.threads, [&](std::size_t chunk) {
+  // The verdicts that need no surface; the others go into groups that share a secondary patch.
+  std::vector<std::size_t> candidates;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    CorrelationPeak& p = result.peaks[i];
+    const std::optional<Eigen::Vector2d>& b0 = predictions[i];
+    if (b0 && !inside_secondary(*b0)) {
+      p.outcome = inside_master(points[i]) ? CorrelationOutcome::outside_secondary : CorrelationOutcome::outside_master;
+    } else if (!b0 || !affines[i]) {
+      p.outcome = CorrelationOutcome::no_prediction;
+    } else if (!inside_master(points[i])) {
+      p.outcome = CorrelationOutcome::outside_master;
+    } else if (!detail::correlation_inside(secondary.width(), secondary.height(), *b0, *affines[i],
+                                           detail::correlation_reach(judged, detail::correlation_subsamples(*affines[i], judged)))) {
+      p.outcome = CorrelationOutcome::outside_secondary;
+    } else {
+      candidates.push_back(i);
+    }
+  }
+  const std::vector<detail::CorrelationGroup> groups =
+      detail::correlation_groups(secondary, points, predictions, affines, candidates, judged);
+  constexpr std::size_t kGroupChunk = 4;
+  parallel_for((groups.size() + kGroupChunk - 1) / kGroupChunk, options.threads, [&](std::size_t chunk) {
     detail::CorrelationScratch s;
     Eigen::MatrixXd surface;
-    for (std::size_t i = chunk * kChunk; i < std::min(points.size(), (chunk + 1) * kChunk); ++i) {
-      CorrelationPeak& p = result.peaks[i];
-      const std::optional<Eigen::Vector2d>& b0 = predictions[i];
-      // A prediction off the secondary image leaves it with any window around it (the window's
-      // corners surround its centre): its local affine, four more transfers, is not needed to say so.
-      if (b0 && !inside_secondary(*b0)) {
-        p.outcome =
-            inside_master(points[i]) ? CorrelationOutcome::outside_secondary : CorrelationOutcome::outside_master;
-        continue;
-      }
-      const std::optional<Eigen::Matrix2d> affine =
-          b0 ? local_affine(transfer, points[i], judged.affine_step()) : std::nullopt;
-      if (!b0 || !affine) {
-        p.outcome = CorrelationOutcome::no_prediction;
-        continue;
-      }
-      const CorrelationOutcome o =
-          detail::correlation_surface_into(master, points[i], secondary, *b0, *affine, judged, s, surface);
-      if (o != CorrelationOutcome::not_run) {
-        p.outcome = o;
-        continue;
-      }
-      p = detail::correlation_peak(surface, *b0, *affine, judged);
-      if (p.outcome == CorrelationOutcome::matched) detail::correlation_refine(secondary, *b0, *affine, judged, s, p);
-    }
+    for (std::size_t g = chunk * kGroupChunk; g < std::min(groups.size(), (chunk + 1) * kGroupChunk); ++g)
+      detail::correlation_group_peaks(master, secondary, points, predictions, affines, groups[g], judged, s, surface,
+                                      result.peaks);
   });
   detail::correlation_pair_test(result.peaks, result.threshold, options);
   for (std::size_t i = 0; i < points.size(); ++i) {
