@@ -11,8 +11,11 @@
 /// triangulation, and diachron/pipeline/combined_adjustment.hpp and combined_epochs.hpp; target
 /// diachron::adjustment) are included separately, so that this header never pulls them.
 
+#include <diachron/core/byte_budget_cache.hpp>
 #include <diachron/core/error.hpp>
 #include <diachron/core/geo_transform.hpp>
+#include <diachron/core/index_ranges.hpp>
+#include <diachron/core/memory_usage.hpp>
 #include <diachron/core/parallel.hpp>
 #include <diachron/core/progress.hpp>
 #include <diachron/core/random.hpp>
@@ -75,6 +78,7 @@
 #include <diachron/validation/ground_filter.hpp>
 #include <diachron/validation/match_filter.hpp>
 #include <diachron/validation/ncc_validator.hpp>
+#include <diachron/matching/correlation_kernel.hpp>
 #include <diachron/matching/correlation_matcher.hpp>
 #include <diachron/matching/descriptor_matching.hpp>
 #include <diachron/matching/features.hpp>
@@ -86,6 +90,7 @@
 #include <diachron/matching/rotation_hypotheses.hpp>
 #include <diachron/matching/scale_hypotheses.hpp>
 #include <diachron/matching/unsharp_mask.hpp>
+#include <diachron/matching/window_sampler.hpp>
 #include <diachron/adjustment/tracks.hpp>
 #include <diachron/eval/check_points.hpp>
 #include <diachron/eval/coregistration_case.hpp>
