@@ -315,6 +315,11 @@ int main_stages(int argc, char** argv) {
     }
     // plan, or the whole run: the plan, every job, the merge.
     prepare(settings);
+#if DIACHRON_MATCH_EPOCHS_ADJUST
+    // The adjustment's options are used by the merge; a typo fails here, before any work.
+    parse_intrinsics(settings.hold);
+    parse_priors(settings.prior);
+#endif
     Run run;
     run.settings = settings;
     run.arguments = canonical_arguments(app, settings);

@@ -56,7 +56,7 @@ if(NOT carriage EQUAL -1 OR NOT err MATCHES "precise matching \\(pairs\\): 0/[0-
   message(FATAL_ERROR "progress into a file is not whole lines:\n${err}")
 endif()
 file(READ "${WORK}/out/report.json" report)
-if(NOT report MATCHES "\"run\": {\"command_line\": \\[\"[^\"]*match_epochs\", \"[^\"]*scene/e1\"[^]]*\\], \"version\": \"[0-9.]+\", \"threads\": [1-9][0-9]*, \"started\": \"[0-9T:Z-]+\", \"inputs\": {\"epochs\": \\[\"/[^\"]*/scene/e1\", \"/[^\"]*/scene/e2\"\\], \"gcps\": null, \"check_points\": null}, \"seconds\": {[^}]*\"precise matching\": [0-9.e-]+[^}]*\"total\": [0-9.e-]+}}"
+if(NOT report MATCHES "\"run\": {\"command_line\": \\[\"[^\"]*match_epochs\", \"[^\"]*scene/e1\"[^]]*\\], \"version\": \"[0-9.]+\", \"threads\": [1-9][0-9]*, \"started\": \"[0-9T:Z-]+\", \"plan_id\": \"[0-9a-f]+\", \"inputs\": {\"epochs\": \\[\"/[^\"]*/scene/e1\", \"/[^\"]*/scene/e2\"\\], \"gcps\": null, \"check_points\": null}, \"seconds\": {[^}]*\"precise matching\": [0-9.e-]+[^}]*\"total\": [0-9.e-]+}, \"peak_memory_bytes\": [0-9]+}"
    OR NOT report MATCHES "\"trust\": {\"level\": \"high\", \"reasons\": \\[\\]}"
    OR NOT report MATCHES "\"input_checks\": {[^\n]*\n *\"e1\": {\"model_dsm\": {\"verdict\": \"agree\"")
   message(FATAL_ERROR "report.json lacks the run, the trust or the input checks:\n${report}")
