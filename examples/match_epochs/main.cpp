@@ -206,7 +206,7 @@ void resolve_plan_path(StageOptions& o, std::string& plan_dir) {
 }
 
 // The jobs of run-pair: --index, --range, or the Slurm array task's index.
-std::vector<std::size_t> job_indices(const StageOptions& o) {
+std::vector<std::size_t> job_indices(const StageOptions& o, std::size_t jobs, const std::string& plan_path) {
   IndexRange range;
   if (!o.range.empty()) {
     range = parse_index_range(o.range);
@@ -218,6 +218,8 @@ std::vector<std::size_t> job_indices(const StageOptions& o) {
     DIACHRON_CHECK(task != nullptr, "run-pair needs --index I or --range A-B (or SLURM_ARRAY_TASK_ID in a Slurm array)");
     range = parse_index_range(task);
   }
+  DIACHRON_CHECK(range.last < jobs, "job " << range.last << " is not in the plan '" << plan_path << "' (it has jobs 0 to "
+                                          << (jobs == 0 ? 0 : jobs - 1) << ")");
   std::vector<std::size_t> out;
   for (std::size_t i = range.first; i <= range.last; ++i) out.push_back(i);
   return out;
@@ -294,7 +296,7 @@ int main_stages(int argc, char** argv) {
       std::string plan_dir;
       resolve_plan_path(o, plan_dir);
       Run run = read_plan(o.plan_path);
-      const std::vector<std::size_t> indices = job_indices(o);
+      const std::vector<std::size_t> indices = job_indices(o, run.jobs, o.plan_path);
       const JobsOutcome outcome =
           run_jobs(run, plan_dir, o.plan_path, indices, job_threads(app, o), budget, progress, o.quiet);
       print_job_errors(outcome);
