@@ -211,6 +211,13 @@ int plan_stage(Run& run, const std::string& work, Reporter& reporter, const Prog
       for (const EpochFrame& f : epochs[b].frames) fb.push_back({f, f.width(), f.height()});
       p.overlap = overlapping_pairs(fa, epochs[a].folder.dsm, fb, epochs[b].folder.dsm, p.secondary_from_master,
                                     overlap_options);
+      // The jobs by master image, then secondary (overlapping_pairs gives the largest overlap first):
+      // consecutive jobs share their master, so a task of several jobs (--range, a Slurm task with
+      // --slurm-pairs-per-task) reads it once through the image cache.
+      std::stable_sort(p.overlap.pairs.begin(), p.overlap.pairs.end(),
+                       [](const ImagePairOverlap& x, const ImagePairOverlap& y) {
+                         return std::tie(x.master, x.secondary) < std::tie(y.master, y.secondary);
+                       });
       p.first_job = run.jobs;
       run.jobs += p.overlap.pairs.size();
       std::printf("overlapping pairs %s -- %s: %zu of %zu candidates (%s)\n", epochs[a].name.c_str(),
