@@ -31,15 +31,7 @@ void read_job_results(Run& run, const std::string& plan_dir, const std::string& 
         foreign.push_back(path);
         continue;
       }
-      PrecisePairReport p;
-      p.master = r.master;
-      p.secondary = r.secondary;
-      p.success = r.success;
-      p.message = r.message;
-      p.masked = r.masked;
-      p.matches = r.matches;
-      p.seconds = r.seconds;
-      ep.precise.pairs.push_back(std::move(p));
+      ep.precise.pairs.push_back(precise_pair_report(r));
       ep.records.push_back(std::move(r));
     }
   }

@@ -62,6 +62,22 @@ inline PairJobRecord pair_job_record(const PrecisePairReport& report, const std:
   return r;
 }
 
+/// The report `r` was made from, as far as the record keeps it: the final matches, the message,
+/// the masked count and the seconds; the tentative and grounded lists are empty (their sizes are
+/// `r.tentative` and `r.grounded`). What combined_epochs' epoch_pair_matches() and the orthophoto
+/// reference read.
+inline PrecisePairReport precise_pair_report(const PairJobRecord& r) {
+  PrecisePairReport p;
+  p.master = r.master;
+  p.secondary = r.secondary;
+  p.success = r.success;
+  p.message = r.message;
+  p.masked = r.masked;
+  p.matches = r.matches;
+  p.seconds = r.seconds;
+  return p;
+}
+
 /// The JSON text of `r` (the layout in the file comment).
 inline std::string pair_job_json(const PairJobRecord& r) {
   std::ostringstream o;
